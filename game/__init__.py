@@ -1,0 +1,1 @@
+"""EnergyBall game: avatar, gestures, arena, rendering."""

@@ -1,0 +1,1 @@
+"""EnergyBall arm tracker: serial link, wire protocol, fusion, calibration (no pygame here)."""
