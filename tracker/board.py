@@ -1,0 +1,366 @@
+"""The virtual board: the firmware's behaviour in Python, on a pseudo-terminal.
+
+It speaks the same protocol as ``firmware/`` (``firmware/PROTOCOL.md``): a
+hello at power-up, raw or fused sample frames at the configured rate stamped
+by a 32-bit microsecond clock, answers to every command. Programs open it like
+a real board, through a pty whose path is a stable symlink (as udev's
+``/dev/serial/by-id`` links are), so pulling and plugging the virtual cable
+looks to the host exactly like a USB replug.
+
+It honours the baud rate the host sets on the pty: at the wrong baud a real
+UART produces garbage, and so does this board. Faults for tests: byte
+corruption, dropped bytes, a stall, a disconnect.
+"""
+
+from __future__ import annotations
+
+import errno
+import math
+import os
+import random
+import select
+import tempfile
+import termios
+import threading
+import time
+import tty
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+
+from . import protocol as P
+from .motion import MotionSource, ScriptedArm, SensorReading
+
+MPU9250_WHOAMI = 0x71
+AK8963_WHOAMI = 0x48
+FIRMWARE_VERSION = "1.0.0"
+MIN_RATE_HZ, MAX_RATE_HZ = 1, 1000
+LEGACY_RATE_HZ = 20  # a 40-byte text line at 9600 baud leaves room for ~24 lines/s
+_BAUD_CONSTANTS = {getattr(termios, f"B{b}"): b for b in
+                   (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400)}
+
+
+@dataclass
+class BoardSettings:
+    """What the firmware is configured to do (defaults are the firmware's)."""
+
+    rate_hz: int = 200
+    mode: P.Mode = P.Mode.RAW
+    acc_fs_g: int = 16
+    gyr_fs_dps: int = 2000
+    baud: int = P.DEFAULT_BAUD
+    stream_at_boot: bool = True  # a plain serial monitor sees data without a handshake
+    legacy_text: bool = False  # behave like the paper's sketch: text lines at 9600 baud
+    clock_start_us: int = 0  # set near 2**32 to exercise the wrap-around
+    errors: P.BoardError = P.BoardError.NONE
+    keep_sent: int = 0  # remember this many sent samples, for tests
+
+    def __post_init__(self) -> None:
+        if self.legacy_text:
+            self.baud = P.LEGACY_BAUD
+            self.rate_hz = LEGACY_RATE_HZ
+
+
+@dataclass
+class Faults:
+    """Faults injected into the byte stream the board sends (seeded)."""
+
+    corrupt_rate: float = 0.0  # probability that a byte gets one random bit flipped
+    drop_rate: float = 0.0  # probability that a byte is lost
+    silent: bool = False  # the board sends nothing at all (a dead or wrong device)
+    seed: int = 0
+
+
+@dataclass
+class BoardCounters:
+    """What the board did, for tests and the ``virtual`` command's report."""
+
+    samples: int = 0
+    frames_sent: int = 0
+    bytes_sent: int = 0
+    bytes_lost: int = 0  # host not reading: the pty buffer was full
+    commands: int = 0
+    plugs: int = 0
+
+
+@dataclass
+class _BoardState:
+    """The firmware's variables; reset at power-up."""
+
+    streaming: bool
+    rate_hz: int
+    mode: P.Mode
+    seq: int = 0
+    boot: float = 0.0  # monotonic time of power-up
+    next_sample: int = 0  # index of the next sample since power-up
+
+
+class VirtualBoard:
+    """A software sensor board served on a pty; use as a context manager.
+
+    ``link`` is the stable path programs open (a symlink to the current pty);
+    by default one in a fresh temporary directory.
+    """
+
+    def __init__(self, motion: MotionSource | None = None, settings: BoardSettings | None = None,
+                 faults: Faults | None = None, link: str | os.PathLike | None = None) -> None:
+        self.motion = motion or ScriptedArm()
+        self.settings = settings or BoardSettings()
+        self.faults = faults or Faults()
+        self._tmpdir = None if link else tempfile.TemporaryDirectory(prefix="energyball-")
+        self.link = Path(link) if link else Path(self._tmpdir.name) / "ttyVIRTUAL"
+        self.counters = BoardCounters()
+        self.sent: deque[P.RawSample | P.FusedSample] = deque(maxlen=self.settings.keep_sent or None)
+        self._rng = random.Random(self.faults.seed)
+        self._lock = threading.RLock()
+        self._fds: tuple[int, int] | None = None
+        self._stall_until = 0.0
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._decoder = P.FrameDecoder(accept_commands=True)
+        self._state = self._power_up()
+
+    # -------------------------------------------------------------- lifecycle
+
+    def start(self) -> "VirtualBoard":
+        """Plug the cable in and run the firmware loop in a thread."""
+        self.plug_in()
+        self._thread = threading.Thread(target=self._run, name="virtual-board", daemon=True)
+        self._thread.start()
+        return self
+
+    def stop(self) -> None:
+        """Stop the firmware loop and pull the cable."""
+        self._stop.set()
+        if self._thread:
+            self._thread.join(timeout=2)
+        self.pull_cable()
+        if self._tmpdir:
+            self._tmpdir.cleanup()
+
+    def __enter__(self) -> "VirtualBoard":
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    @property
+    def port(self) -> str:
+        """The path to open (the stable symlink)."""
+        return str(self.link)
+
+    # -------------------------------------------------------------- faults
+
+    def pull_cable(self) -> None:
+        """Unplug: the pty disappears, the host's reads fail, the link vanishes."""
+        with self._lock:
+            if self._fds is None:
+                return
+            for fd in self._fds:
+                os.close(fd)
+            self._fds = None
+            self.link.unlink(missing_ok=True)
+
+    def plug_in(self) -> None:
+        """Plug in: a new pty appears behind the link and the board powers up."""
+        with self._lock:
+            if self._fds is not None:
+                return
+            master, slave = os.openpty()
+            tty.setraw(slave)  # no echo or line editing before the host configures the port
+            self._set_baud(slave, self.settings.baud)
+            os.set_blocking(master, False)
+            self._fds = (master, slave)
+            tmp = self.link.with_name(self.link.name + ".new")
+            tmp.unlink(missing_ok=True)
+            tmp.symlink_to(os.ttyname(slave))
+            tmp.replace(self.link)  # atomic: a reader never sees a missing link mid-swap
+            self.counters.plugs += 1
+            self._state = self._power_up()
+            if not self.settings.legacy_text:
+                self._send(P.encode_hello(self.hello()))
+
+    def stall(self, seconds: float) -> None:
+        """Freeze the firmware loop for ``seconds`` (samples are not sent, not queued)."""
+        self._stall_until = time.monotonic() + seconds
+
+    # -------------------------------------------------------------- firmware
+
+    def hello(self) -> P.Hello:
+        """The hello frame the firmware would send now."""
+        s, st = self.settings, self._state
+        return P.Hello(P.PROTOCOL_VERSION, FIRMWARE_VERSION, MPU9250_WHOAMI,
+                       AK8963_WHOAMI if self._has_mag() else 0, st.rate_hz, st.mode,
+                       st.streaming, s.acc_fs_g, s.gyr_fs_dps, s.errors)
+
+    def _has_mag(self) -> bool:
+        return self.motion.reading(0.0).mag is not None
+
+    def _power_up(self) -> _BoardState:
+        s = self.settings
+        return _BoardState(streaming=s.stream_at_boot or s.legacy_text, rate_hz=s.rate_hz,
+                           mode=s.mode, boot=time.monotonic())
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            with self._lock:
+                fds = self._fds
+            if fds is None:
+                self._stop.wait(0.01)
+                continue
+            self._serve_commands(fds[0])
+            if time.monotonic() < self._stall_until:
+                self._state.next_sample = self._due_index()  # a frozen loop skips, not queues
+                continue
+            self._send_due_samples()
+
+    def _due_index(self) -> int:
+        return int((time.monotonic() - self._state.boot) * self._state.rate_hz) + 1
+
+    def _serve_commands(self, master: int) -> None:
+        st = self._state
+        wait = max(0.0, st.boot + st.next_sample / st.rate_hz - time.monotonic())
+        try:
+            ready, _, _ = select.select([master], [], [], min(wait, 0.01))
+            data = os.read(master, 4096) if ready else b""
+        except OSError:  # cable pulled under us, or nobody has the port open yet
+            time.sleep(0.005)
+            return
+        if not data or self.settings.legacy_text:
+            return  # the paper's sketch ignores its input
+        if not self._baud_matches():
+            return  # at the wrong baud the host's bytes are noise to our UART
+        for packet in self._decoder.feed(data):
+            if isinstance(packet, P.Command):
+                self.counters.commands += 1
+                self._execute(packet)
+
+    def _execute(self, c: P.Command) -> None:
+        st = self._state
+        status = P.AckStatus.OK
+        if c.type == P.FrameType.START:
+            st.streaming = True
+        elif c.type == P.FrameType.STOP:
+            st.streaming = False
+        elif c.type == P.FrameType.SET_RATE:
+            if MIN_RATE_HZ <= c.arg <= MAX_RATE_HZ:
+                self._retime(c.arg)
+            else:
+                status = P.AckStatus.BAD_ARGUMENT
+        elif c.type == P.FrameType.SET_MODE:
+            if c.arg in P.Mode._value2member_map_:
+                st.mode = P.Mode(c.arg)
+            else:
+                status = P.AckStatus.BAD_ARGUMENT
+        elif c.type == P.FrameType.IDENTIFY:
+            self._send(P.encode_hello(self.hello()))
+            return
+        elif c.type == P.FrameType.RESET:
+            self._send(P.encode_ack(P.Ack(c.type, status)))
+            self._state = self._power_up()
+            self._send(P.encode_hello(self.hello()))
+            return
+        self._send(P.encode_ack(P.Ack(c.type, status)))
+
+    def _retime(self, rate_hz: int) -> None:
+        """Change the rate keeping the device clock continuous."""
+        st = self._state
+        now = time.monotonic() - st.boot
+        st.rate_hz = rate_hz
+        st.next_sample = int(now * rate_hz) + 1
+
+    def _send_due_samples(self) -> None:
+        st = self._state
+        due = self._due_index()
+        if not st.streaming:
+            st.next_sample = due
+            return
+        # Catch up at most 50 ms of samples after a hiccup; older ones are skipped
+        # (the sequence number tells the host how many).
+        first = max(st.next_sample, due - max(1, st.rate_hz // 20))
+        st.seq = (st.seq + first - st.next_sample) & 0xFFFF
+        chunk = bytearray()
+        for k in range(first, due):
+            t = k / st.rate_hz
+            chunk += self._sample_bytes(t, self.motion.reading(t))
+        st.next_sample = max(st.next_sample, due)
+        if chunk:
+            self._send(bytes(chunk))
+
+    def _sample_bytes(self, t: float, r: SensorReading) -> bytes:
+        st, s = self._state, self.settings
+        t_us = (s.clock_start_us + round(t * 1e6)) & 0xFFFFFFFF
+        seq = st.seq
+        st.seq = (st.seq + 1) & 0xFFFF
+        self.counters.samples += 1
+        if s.legacy_text:
+            sample = P.FusedSample(t, None, seq, r.q, r.flex_deg)
+            self.sent.append(sample)
+            return P.format_text_line(sample)
+        if st.mode == P.Mode.FUSED:
+            sample = P.FusedSample(t, t_us, seq, r.q, r.flex_deg)
+        else:
+            sample = quantise(r, t, t_us, seq, s.acc_fs_g, s.gyr_fs_dps)
+        self.sent.append(sample)
+        self.counters.frames_sent += 1
+        return P.encode(sample)
+
+    # -------------------------------------------------------------- the wire
+
+    def _send(self, data: bytes) -> None:
+        with self._lock:
+            if self._fds is None or self.faults.silent:
+                return
+            data = self._garble(self._inject(data)) if not self._baud_matches() else self._inject(data)
+            try:
+                n = os.write(self._fds[0], data)
+            except OSError as e:
+                if e.errno not in (errno.EAGAIN, errno.EIO):
+                    raise
+                n = 0
+            self.counters.bytes_sent += n
+            self.counters.bytes_lost += len(data) - n
+
+    def _inject(self, data: bytes) -> bytes:
+        f = self.faults
+        if not (f.corrupt_rate or f.drop_rate):
+            return data
+        out = bytearray()
+        for b in data:
+            if self._rng.random() < f.drop_rate:
+                continue
+            if self._rng.random() < f.corrupt_rate:
+                b ^= 1 << self._rng.randrange(8)
+            out.append(b)
+        return bytes(out)
+
+    def _garble(self, data: bytes) -> bytes:
+        """What a UART at the wrong baud makes of the bytes: noise of about the same amount."""
+        return bytes(self._rng.randrange(256) for _ in data)
+
+    def _baud_matches(self) -> bool:
+        if self._fds is None:
+            return False
+        speed = termios.tcgetattr(self._fds[1])[5]
+        return _BAUD_CONSTANTS.get(speed) == self.settings.baud
+
+    @staticmethod
+    def _set_baud(fd: int, baud: int) -> None:
+        attrs = termios.tcgetattr(fd)
+        attrs[4] = attrs[5] = getattr(termios, f"B{baud}")
+        termios.tcsetattr(fd, termios.TCSANOW, attrs)
+
+
+def _counts(values: tuple[float, ...], lsb: float) -> tuple[int, ...]:
+    """Quantise and saturate to int16, as the sensor's ADC does."""
+    return tuple(max(-32768, min(32767, round(v / lsb))) for v in values)
+
+
+def quantise(r: SensorReading, t: float, t_us: int, seq: int,
+             acc_fs_g: int, gyr_fs_dps: int) -> P.RawSample:
+    """The raw sample the firmware would read from the MPU-9250 for ``r``."""
+    acc = _counts(r.acc, acc_fs_g * P.STANDARD_GRAVITY / 32768.0)
+    gyr = _counts(r.gyr, math.radians(gyr_fs_dps) / 32768.0)
+    mag = _counts(r.mag, P.MAG_UT_PER_COUNT) if r.mag is not None else None
+    return P.RawSample(t, t_us, seq, acc, gyr, mag, r.flex_adc, acc_fs_g, gyr_fs_dps)
+

@@ -1,0 +1,537 @@
+"""The EnergyBall wire protocol: frames, packets, an incremental decoder.
+
+The normative description is ``firmware/PROTOCOL.md``; this module is its
+host-side implementation, and the firmware (``firmware/``) the board side.
+
+A frame is::
+
+    A5 5A | len (u8) | type (u8) | payload (len bytes) | CRC-16 (u16, little endian)
+
+The CRC is CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, no reflection, no
+final xor) over ``len``, ``type`` and the payload; ``binascii.crc_hqx`` computes
+exactly that in C. All multi-byte fields are little endian (the AVR's order).
+
+The paper's board (seed 000, sec. 4) instead printed one text line per sample
+at 9600 baud: a quaternion and the flex angle. :class:`TextDecoder` reads that
+stream so a board running a paper-style sketch still works.
+"""
+
+from __future__ import annotations
+
+import binascii
+import math
+import re
+import struct
+from dataclasses import dataclass, field
+from enum import IntEnum, IntFlag
+from typing import Union
+
+SYNC = b"\xa5\x5a"
+HEADER_SIZE = 4  # sync (2) + len + type
+CRC_SIZE = 2
+PROTOCOL_VERSION = 1
+DEFAULT_BAUD = 115200
+LEGACY_BAUD = 9600
+
+STANDARD_GRAVITY = 9.80665  # m/s^2 per g, the unit the accelerometer counts in
+ACC_FS_G = (2, 4, 8, 16)  # full-scale code -> +-g (MPU-9250 ACCEL_FS_SEL)
+GYR_FS_DPS = (250, 500, 1000, 2000)  # full-scale code -> +-deg/s (GYRO_FS_SEL)
+MAG_UT_PER_COUNT = 0.15  # AK8963 in 16-bit output mode
+FLEX_ADC_MASK = 0x03FF  # 10-bit ADC
+
+
+class FrameType(IntEnum):
+    """Packet types; board-to-host below 0x80, host-to-board (commands) above."""
+
+    RAW = 0x01
+    FUSED = 0x02
+    HELLO = 0x03
+    ACK = 0x04
+    START = 0x81
+    STOP = 0x82
+    SET_RATE = 0x83
+    SET_MODE = 0x84
+    IDENTIFY = 0x85
+    RESET = 0x86
+
+
+class Mode(IntEnum):
+    """What the board streams: raw sensor counts, or its own fused orientation."""
+
+    RAW = 0
+    FUSED = 1
+
+
+class BoardError(IntFlag):
+    """Board-side error bits reported in the hello frame."""
+
+    NONE = 0
+    IMU_MISSING = 0x01  # MPU-9250 did not answer WHO_AM_I
+    I2C_FAILURE = 0x02  # an I2C transfer failed or timed out
+    MAG_MISSING = 0x04  # AK8963 did not answer
+    FLEX_RAIL = 0x08  # flex ADC stuck at a rail (sensor unplugged)
+    OVERRUN = 0x10  # the sample loop missed its deadline
+
+
+class AckStatus(IntEnum):
+    """Board's answer to a command."""
+
+    OK = 0
+    BAD_ARGUMENT = 1
+    UNKNOWN_COMMAND = 2
+    BAD_LENGTH = 3
+
+
+# Flags packed into the top 6 bits of the raw frame's flex field.
+_ACC_FS_SHIFT = 10
+_GYR_FS_SHIFT = 12
+_MAG_VALID_BIT = 1 << 14
+_MAG_OVERFLOW_BIT = 1 << 15
+
+_RAW = struct.Struct("<IH9hH")  # t_us, seq, acc xyz, gyr xyz, mag xyz, flex|flags
+_FUSED = struct.Struct("<IH4hh")  # t_us, seq, quaternion (Q14), flex centidegrees
+_HELLO = struct.Struct("<BBBBBBHBBBBH")
+_ACK = struct.Struct("<BB")
+_RATE = struct.Struct("<H")
+_MODE = struct.Struct("<B")
+Q14 = 16384.0
+
+PAYLOAD_SIZE: dict[int, int] = {
+    FrameType.RAW: _RAW.size,
+    FrameType.FUSED: _FUSED.size,
+    FrameType.HELLO: _HELLO.size,
+    FrameType.ACK: _ACK.size,
+    FrameType.START: 0,
+    FrameType.STOP: 0,
+    FrameType.SET_RATE: _RATE.size,
+    FrameType.SET_MODE: _MODE.size,
+    FrameType.IDENTIFY: 0,
+    FrameType.RESET: 0,
+}
+RAW_FRAME_SIZE = HEADER_SIZE + _RAW.size + CRC_SIZE
+
+
+def crc16(data: bytes, crc: int = 0xFFFF) -> int:
+    """CRC-16/CCITT-FALSE of ``data`` (check value of b"123456789" is 0x29B1)."""
+    return binascii.crc_hqx(data, crc)
+
+
+def link_utilisation(rate_hz: float, frame_size: int = RAW_FRAME_SIZE,
+                     baud: int = DEFAULT_BAUD) -> float:
+    """Fraction of a UART link (8N1: 10 bits a byte) that a frame stream uses."""
+    return rate_hz * frame_size * 10 / baud
+
+
+# ----------------------------------------------------------------- packets
+
+
+@dataclass(frozen=True, slots=True)
+class RawSample:
+    """One raw IMU + flex reading, as counts, with the scales to convert them.
+
+    ``t`` is device time in seconds, unwrapped by the decoder; ``t_us`` the
+    board's 32-bit microsecond counter as sent. ``host_t`` is the host's
+    receive time (``time.monotonic``) when the sample came over a link.
+    """
+
+    t: float
+    t_us: int
+    seq: int
+    acc_counts: tuple[int, int, int]
+    gyr_counts: tuple[int, int, int]
+    mag_counts: tuple[int, int, int] | None
+    flex_adc: int
+    acc_fs_g: int = 16
+    gyr_fs_dps: int = 2000
+    mag_overflow: bool = False
+    host_t: float | None = None
+
+    @property
+    def acc(self) -> tuple[float, float, float]:
+        """Specific force in m/s^2 (+9.81 on the up axis at rest)."""
+        k = self.acc_fs_g * STANDARD_GRAVITY / 32768.0
+        return tuple(c * k for c in self.acc_counts)  # type: ignore[return-value]
+
+    @property
+    def gyr(self) -> tuple[float, float, float]:
+        """Angular rate in rad/s."""
+        k = math.radians(self.gyr_fs_dps) / 32768.0
+        return tuple(c * k for c in self.gyr_counts)  # type: ignore[return-value]
+
+    @property
+    def mag(self) -> tuple[float, float, float] | None:
+        """Magnetic field in microtesla, or None when the board has no magnetometer reading."""
+        if self.mag_counts is None:
+            return None
+        return tuple(c * MAG_UT_PER_COUNT for c in self.mag_counts)  # type: ignore[return-value]
+
+
+@dataclass(frozen=True, slots=True)
+class FusedSample:
+    """The board's own orientation estimate (the paper's mode, seed 000 sec. 3-4).
+
+    ``q`` is q_WS, scalar first; ``flex_deg`` the elbow angle (0 = straight).
+    Text-mode samples have no device clock: ``t_us`` is None and ``t`` is host time.
+    """
+
+    t: float
+    t_us: int | None
+    seq: int
+    q: tuple[float, float, float, float]
+    flex_deg: float
+    host_t: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Hello:
+    """Board identity and status, sent at boot and in answer to IDENTIFY."""
+
+    protocol: int
+    firmware: str
+    imu_whoami: int
+    mag_whoami: int
+    rate_hz: int
+    mode: Mode
+    streaming: bool
+    acc_fs_g: int
+    gyr_fs_dps: int
+    errors: BoardError
+
+    def to_json(self) -> dict:
+        """JSON-ready fields; errors as a list of flag names."""
+        return {
+            "protocol": self.protocol,
+            "firmware": self.firmware,
+            "imu_whoami": self.imu_whoami,
+            "mag_whoami": self.mag_whoami,
+            "rate_hz": self.rate_hz,
+            "mode": self.mode.name.lower(),
+            "streaming": self.streaming,
+            "acc_fs_g": self.acc_fs_g,
+            "gyr_fs_dps": self.gyr_fs_dps,
+            "errors": [e.name for e in BoardError if e and e in self.errors],
+        }
+
+    @classmethod
+    def from_json(cls, d: dict) -> "Hello":
+        """Inverse of :meth:`to_json`."""
+        errors = BoardError.NONE
+        for name in d.get("errors", []):
+            errors |= BoardError[name]
+        return cls(d["protocol"], d["firmware"], d["imu_whoami"], d["mag_whoami"],
+                   d["rate_hz"], Mode[d["mode"].upper()], d["streaming"],
+                   d["acc_fs_g"], d["gyr_fs_dps"], errors)
+
+
+@dataclass(frozen=True, slots=True)
+class Ack:
+    """The board's answer to a host command."""
+
+    command: int
+    status: AckStatus
+
+
+@dataclass(frozen=True, slots=True)
+class Command:
+    """A host-to-board command (START, STOP, SET_RATE, SET_MODE, IDENTIFY, RESET)."""
+
+    type: FrameType
+    arg: int | None = None
+
+
+Packet = Union[RawSample, FusedSample, Hello, Ack, Command]
+
+
+# ----------------------------------------------------------------- encoding
+
+
+def frame(ftype: int, payload: bytes = b"") -> bytes:
+    """Wrap a payload in sync, length, type and CRC."""
+    body = bytes((len(payload), ftype)) + payload
+    return SYNC + body + crc16(body).to_bytes(2, "little")
+
+
+def _fs_code(table: tuple[int, ...], value: int, what: str) -> int:
+    try:
+        return table.index(value)
+    except ValueError:
+        raise ValueError(f"{what} full scale {value} is not one of {table}") from None
+
+
+def encode_raw(s: RawSample) -> bytes:
+    """Encode a raw sample frame (the decoder's exact inverse)."""
+    flags = (s.flex_adc & FLEX_ADC_MASK) \
+        | _fs_code(ACC_FS_G, s.acc_fs_g, "accelerometer") << _ACC_FS_SHIFT \
+        | _fs_code(GYR_FS_DPS, s.gyr_fs_dps, "gyroscope") << _GYR_FS_SHIFT \
+        | (_MAG_VALID_BIT if s.mag_counts is not None else 0) \
+        | (_MAG_OVERFLOW_BIT if s.mag_overflow else 0)
+    mag = s.mag_counts if s.mag_counts is not None else (0, 0, 0)
+    return frame(FrameType.RAW, _RAW.pack(s.t_us & 0xFFFFFFFF, s.seq & 0xFFFF,
+                                          *s.acc_counts, *s.gyr_counts, *mag, flags))
+
+
+def _q14(x: float) -> int:
+    return max(-32768, min(32767, round(x * Q14)))
+
+
+def encode_fused(s: FusedSample) -> bytes:
+    """Encode a fused sample frame: quaternion in Q14, flex in centidegrees."""
+    flex = max(-32768, min(32767, round(s.flex_deg * 100)))
+    return frame(FrameType.FUSED, _FUSED.pack((s.t_us or 0) & 0xFFFFFFFF, s.seq & 0xFFFF,
+                                              *(_q14(c) for c in s.q), flex))
+
+
+def encode_hello(h: Hello) -> bytes:
+    """Encode a hello/status frame."""
+    major, minor, patch = (int(p) for p in h.firmware.split("."))
+    return frame(FrameType.HELLO, _HELLO.pack(
+        h.protocol, major, minor, patch, h.imu_whoami, h.mag_whoami, h.rate_hz,
+        int(h.mode), int(h.streaming), _fs_code(ACC_FS_G, h.acc_fs_g, "accelerometer"),
+        _fs_code(GYR_FS_DPS, h.gyr_fs_dps, "gyroscope"), int(h.errors)))
+
+
+def encode_ack(a: Ack) -> bytes:
+    """Encode the board's answer to a command."""
+    return frame(FrameType.ACK, _ACK.pack(a.command, int(a.status)))
+
+
+def encode_command(c: Command) -> bytes:
+    """Encode a host-to-board command frame."""
+    if c.type == FrameType.SET_RATE:
+        return frame(c.type, _RATE.pack(c.arg))
+    if c.type == FrameType.SET_MODE:
+        return frame(c.type, _MODE.pack(c.arg))
+    return frame(c.type)
+
+
+def encode(p: Packet) -> bytes:
+    """Encode any packet."""
+    encoders = {RawSample: encode_raw, FusedSample: encode_fused, Hello: encode_hello,
+                Ack: encode_ack, Command: encode_command}
+    return encoders[type(p)](p)
+
+
+# ----------------------------------------------------------------- decoding
+
+
+@dataclass
+class DecoderStats:
+    """Counters a decoder keeps; read them, never write them."""
+
+    frames: int = 0  # valid frames decoded
+    crc_errors: int = 0  # candidate frames whose CRC did not match
+    dropped: int = 0  # samples missing according to sequence gaps
+    bytes_skipped: int = 0  # bytes that were not part of a valid frame
+    unknown: int = 0  # valid frames of a type this host does not know
+    bad_lines: int = 0  # text mode: lines that were not a sample
+
+    def to_json(self) -> dict:
+        return {"frames": self.frames, "crc_errors": self.crc_errors, "dropped": self.dropped,
+                "bytes_skipped": self.bytes_skipped, "unknown": self.unknown,
+                "bad_lines": self.bad_lines}
+
+
+@dataclass
+class _Clock:
+    """Unwraps the board's 32-bit microsecond counter into seconds."""
+
+    last_us: int | None = None
+    epoch: int = 0
+
+    def seconds(self, t_us: int) -> float:
+        # A step backwards of more than half the range is a wrap, not jitter.
+        if self.last_us is not None and t_us < self.last_us and self.last_us - t_us > 1 << 31:
+            self.epoch += 1 << 32
+        self.last_us = t_us
+        return (self.epoch + t_us) * 1e-6
+
+
+@dataclass
+class _Sequence:
+    """Counts samples lost in sequence-number gaps (16-bit, wrapping)."""
+
+    last: int | None = None
+
+    def gap(self, seq: int) -> int:
+        lost = 0 if self.last is None else (seq - self.last - 1) & 0xFFFF
+        self.last = seq
+        return lost
+
+
+MAX_BUFFER = 4096  # bytes kept between feeds; a frame is at most 259
+
+
+@dataclass
+class FrameDecoder:
+    """Incremental decoder of the binary protocol.
+
+    Feed it chunks of any size; it returns the packets completed so far. It
+    resynchronises after garbage by scanning for the sync marker one byte at a
+    time past any rejected candidate, so a valid frame is never skipped, and it
+    never raises on any input.
+    """
+
+    stats: DecoderStats = field(default_factory=DecoderStats)
+    accept_commands: bool = False  # the board side decodes commands
+    _buf: bytearray = field(default_factory=bytearray)
+    _clock: _Clock = field(default_factory=_Clock)
+    _seq: _Sequence = field(default_factory=_Sequence)
+
+    def feed(self, data: bytes, host_t: float | None = None) -> list[Packet]:
+        """Decode ``data`` appended to what is buffered; return complete packets."""
+        buf = self._buf
+        buf += data
+        out: list[Packet] = []
+        pos = 0
+        n = len(buf)
+        while True:
+            start = buf.find(SYNC, pos)
+            if start < 0:
+                # Keep a trailing first sync byte: it may start the next frame.
+                keep = 1 if pos < n and buf[-1] == SYNC[0] else 0
+                self.stats.bytes_skipped += n - pos - keep
+                pos = n - keep
+                break
+            self.stats.bytes_skipped += start - pos
+            pos = start
+            if n - pos < HEADER_SIZE:
+                break
+            length, ftype = buf[pos + 2], buf[pos + 3]
+            expected = PAYLOAD_SIZE.get(ftype)
+            if expected is not None and expected != length:
+                self.stats.bytes_skipped += 1
+                pos += 1
+                continue
+            end = pos + HEADER_SIZE + length + CRC_SIZE
+            if end > n:
+                break
+            if crc16(buf[pos + 2:end - CRC_SIZE]) != buf[end - 2] | buf[end - 1] << 8:
+                self.stats.crc_errors += 1
+                self.stats.bytes_skipped += 1
+                pos += 1
+                continue
+            packet = self._packet(ftype, buf, pos + HEADER_SIZE, host_t)
+            if packet is not None:
+                out.append(packet)
+            self.stats.frames += 1
+            pos = end
+        del buf[:pos]
+        if len(buf) > MAX_BUFFER:  # cannot happen with a sync at the front; belt and braces
+            self.stats.bytes_skipped += len(buf)
+            buf.clear()
+        return out
+
+    def _packet(self, ftype: int, buf: bytearray, at: int, host_t: float | None) -> Packet | None:
+        """The packet whose (CRC-checked) payload starts at ``buf[at]``."""
+        if ftype == FrameType.RAW:
+            return self._raw(buf, at, host_t)
+        if ftype == FrameType.FUSED:
+            return self._fused(buf, at, host_t)
+        if ftype == FrameType.HELLO:
+            return _hello(buf, at)
+        if ftype == FrameType.ACK:
+            cmd, status = _ACK.unpack_from(buf, at)
+            return Ack(cmd, AckStatus(status) if status in AckStatus._value2member_map_
+                       else AckStatus.BAD_ARGUMENT)
+        if ftype >= 0x80 and self.accept_commands and ftype in PAYLOAD_SIZE:
+            return _command(ftype, buf, at)
+        self.stats.unknown += 1
+        return None
+
+    def _raw(self, buf: bytearray, at: int, host_t: float | None) -> RawSample:
+        t_us, seq, ax, ay, az, gx, gy, gz, mx, my, mz, flags = _RAW.unpack_from(buf, at)
+        self.stats.dropped += self._seq.gap(seq)
+        return RawSample(
+            self._clock.seconds(t_us), t_us, seq, (ax, ay, az), (gx, gy, gz),
+            (mx, my, mz) if flags & _MAG_VALID_BIT else None, flags & FLEX_ADC_MASK,
+            ACC_FS_G[flags >> _ACC_FS_SHIFT & 3], GYR_FS_DPS[flags >> _GYR_FS_SHIFT & 3],
+            bool(flags & _MAG_OVERFLOW_BIT), host_t)
+
+    def _fused(self, buf: bytearray, at: int, host_t: float | None) -> FusedSample:
+        t_us, seq, w, x, y, z, flex = _FUSED.unpack_from(buf, at)
+        self.stats.dropped += self._seq.gap(seq)
+        return FusedSample(self._clock.seconds(t_us), t_us, seq,
+                           (w / Q14, x / Q14, y / Q14, z / Q14), flex / 100.0, host_t)
+
+
+def _hello(buf: bytearray, at: int) -> Hello:
+    (proto, major, minor, patch, imu, mag, rate, mode, streaming,
+     acc_fs, gyr_fs, errors) = _HELLO.unpack_from(buf, at)
+    return Hello(proto, f"{major}.{minor}.{patch}", imu, mag, rate,
+                 Mode(mode) if mode in Mode._value2member_map_ else Mode.RAW,
+                 bool(streaming), ACC_FS_G[acc_fs & 3], GYR_FS_DPS[gyr_fs & 3],
+                 BoardError(errors & 0xFF))
+
+
+def _command(ftype: int, buf: bytearray, at: int) -> Command:
+    if ftype == FrameType.SET_RATE:
+        return Command(FrameType.SET_RATE, _RATE.unpack_from(buf, at)[0])
+    if ftype == FrameType.SET_MODE:
+        return Command(FrameType.SET_MODE, _MODE.unpack_from(buf, at)[0])
+    return Command(FrameType(ftype))
+
+
+# ----------------------------------------------------------------- paper text mode
+
+_NUMBER = re.compile(rb"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+MAX_LINE = 256
+
+
+@dataclass
+class TextDecoder:
+    """Decoder of the paper's text stream (seed 000 sec. 4: 9600 baud to the PC).
+
+    One line per sample holding five numbers, a quaternion and the flex angle
+    in degrees, separated by commas, spaces or tabs (labels are ignored).
+    ``order`` says how the sketch printed the quaternion: ``"wxyz"`` (ours) or
+    ``"xyzw"`` (Unity's ``Quaternion(x, y, z, w)``). Lines whose quaternion is
+    far from unit norm are counted as bad, not passed on.
+    """
+
+    order: str = "wxyz"
+    stats: DecoderStats = field(default_factory=DecoderStats)
+    _buf: bytearray = field(default_factory=bytearray)
+    _seq: int = 0
+
+    def feed(self, data: bytes, host_t: float | None = None) -> list[FusedSample]:
+        self._buf += data
+        *lines, rest = self._buf.split(b"\n")
+        if len(rest) > MAX_LINE:
+            self.stats.bad_lines += 1
+            self.stats.bytes_skipped += len(rest)
+            rest = b""
+        self._buf = bytearray(rest)
+        out = []
+        for line in lines:
+            sample = self._line(line, host_t)
+            if sample is None:
+                self.stats.bad_lines += 1
+                self.stats.bytes_skipped += len(line) + 1
+            else:
+                out.append(sample)
+        return out
+
+    def _line(self, line: bytes, host_t: float | None) -> FusedSample | None:
+        numbers = _NUMBER.findall(line)
+        if len(numbers) != 5 or len(line) > MAX_LINE:
+            return None
+        values = [float(v) for v in numbers]
+        if not all(math.isfinite(v) for v in values):
+            return None
+        q = values[:4] if self.order == "wxyz" else [values[3], *values[:3]]
+        norm = math.sqrt(sum(c * c for c in q))
+        if abs(norm - 1.0) > 0.05:
+            return None
+        self.stats.frames += 1
+        self._seq = (self._seq + 1) & 0xFFFF
+        t = host_t if host_t is not None else 0.0
+        return FusedSample(t, None, self._seq, tuple(c / norm for c in q), values[4], host_t)
+
+
+def format_text_line(s: FusedSample) -> bytes:
+    """One line of the paper-style text stream (what a paper sketch prints)."""
+    w, x, y, z = s.q
+    return f"{w:.4f},{x:.4f},{y:.4f},{z:.4f},{s.flex_deg:.2f}\r\n".encode()
+
+
+Decoder = Union[FrameDecoder, TextDecoder]
