@@ -275,10 +275,9 @@ class VirtualBoard:
         if not st.streaming:
             st.next_sample = due
             return
-        # Catch up at most 50 ms of samples after a hiccup; older ones are skipped
-        # (the sequence number tells the host how many).
+        # Catch up at most 50 ms of samples after a hiccup; older ones are never taken,
+        # so, as after a stall, the sequence number (samples taken) does not count them.
         first = max(st.next_sample, due - max(1, st.rate_hz // 20))
-        st.seq = (st.seq + first - st.next_sample) & 0xFFFF
         chunk = bytearray()
         for k in range(first, due):
             t = k / st.rate_hz

@@ -16,10 +16,11 @@ import threading
 import time
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Callable, Iterator, NoReturn
+from typing import Callable, Iterable, Iterator, NoReturn
 
 import serial
 from serial.tools import list_ports
+from serial.tools.list_ports_common import ListPortInfo
 
 from . import protocol as P
 
@@ -56,12 +57,17 @@ class PortInfo:
         return f"{self.device}  {ids}  {self.chip or '-'}  {self.description}"
 
 
-def list_serial_ports() -> list[PortInfo]:
-    """Every serial port, boards first."""
-    ports = [PortInfo(p.device, p.description or "", p.vid, p.pid,
+def classify(ports: Iterable[ListPortInfo]) -> list[PortInfo]:
+    """Name the known boards among pyserial's port descriptions; boards first."""
+    infos = [PortInfo(p.device, p.description or "", p.vid, p.pid,
                       KNOWN_USB_IDS.get((p.vid, p.pid)) if p.vid is not None else None)
-             for p in list_ports.comports()]
-    return sorted(ports, key=lambda p: (p.chip is None, p.device))
+             for p in ports]
+    return sorted(infos, key=lambda p: (p.chip is None, p.device))
+
+
+def list_serial_ports() -> list[PortInfo]:
+    """Every serial port the system has, boards first."""
+    return classify(list_ports.comports())
 
 
 def find_boards() -> list[PortInfo]:

@@ -492,14 +492,23 @@ class TextDecoder:
     stats: DecoderStats = field(default_factory=DecoderStats)
     _buf: bytearray = field(default_factory=bytearray)
     _seq: int = 0
+    _in_long_line: bool = False  # dropping the rest of an overlong line up to its newline
 
     def feed(self, data: bytes, host_t: float | None = None) -> list[FusedSample]:
         self._buf += data
         *lines, rest = self._buf.split(b"\n")
+        if self._in_long_line:  # already counted as one bad line: skip through its newline
+            if lines:
+                self.stats.bytes_skipped += len(lines.pop(0)) + 1
+                self._in_long_line = False
+            else:
+                self.stats.bytes_skipped += len(rest)
+                rest = b""
         if len(rest) > MAX_LINE:
             self.stats.bad_lines += 1
             self.stats.bytes_skipped += len(rest)
             rest = b""
+            self._in_long_line = True
         self._buf = bytearray(rest)
         out = []
         for line in lines:
