@@ -146,3 +146,20 @@ def test_known_usb_ids_are_recognised_and_listed_first():
     infos = classify(ports)
     assert [i.device for i in infos[:2]] == ["/dev/ttyACM0", "/dev/ttyUSB0"]
     assert [i.chip is not None for i in infos] == [True, True, False, False]
+
+
+def test_dropped_bytes_show_as_sequence_gaps_and_a_stall_as_silence():
+    settings = BoardSettings(stream_at_boot=False, keep_sent=10_000)
+    with VirtualBoard(settings=settings, faults=Faults(drop_rate=1e-3, seed=3)) as board, \
+            Link(LinkSettings(board.port)) as link:
+        got = list(link.samples(1.0))
+        board.stall(0.4)
+        time.sleep(0.3)
+        silent_for = link.health().since_last_s
+        got += list(link.samples(0.6))
+    sent = {wire(s) for s in board.sent}
+    assert all(wire(s) in sent for s in got)  # a frame that lost a byte is never delivered
+    assert link.health().dropped == (got[-1].seq - got[0].seq + 1) - len(got) > 0
+    assert silent_for >= 0.25
+    # The stalled board took no samples: the device clock jumps by the stall.
+    assert max(b.t - a.t for a, b in zip(got, got[1:])) >= 0.35
