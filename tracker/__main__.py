@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Iterator, Sequence
 
 from . import bench, protocol as P
+from .evaluate import DatasetError
 from .link import Link, LinkError, LinkSettings, find_boards, list_serial_ports
 from .recording import CsvRecorder, RawRecorder, RecordingError, Replay, decode_file
 
@@ -252,6 +253,31 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    from .evaluate import evaluate, filter_names, find_trials, markdown_table, write_readme_table
+    paths = find_trials(args.dataset)
+    names = filter_names(args.filter)
+    dofs = [args.dof] if args.dof else [6, 9]
+    results = []
+    total = len(paths) * len(names) * len(dofs)
+    for r in evaluate(paths, names, dofs):
+        results.append(r)
+        print(f"[{len(results)}/{total}] {r['trial']} {r['filter']} {r['dof']}D: "
+              f"total {r['total']:.2f}  inclination {r['inclination']:.2f} deg", file=sys.stderr)
+    if args.readme:
+        write_readme_table(args.readme, results)
+        print(f"updated the results table in {args.readme}", file=sys.stderr)
+    print(json.dumps({"results": results}) if args.json else markdown_table(results))
+    return 0
+
+
+def cmd_fuse(args: argparse.Namespace) -> int:
+    from .fuse import fuse_file
+    n = fuse_file(args.input, args.filter, args.dof, args.out)
+    print(f"wrote {n} orientations to {args.out}", file=sys.stderr)
+    return 0
+
+
 def cmd_virtual(args: argparse.Namespace) -> int:
     from .board import BoardSettings, Faults, VirtualBoard
     settings = BoardSettings(rate_hz=args.rate, legacy_text=args.legacy)
@@ -333,6 +359,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_bench)
 
+    p = sub.add_parser("evaluate", help="score fusion filters on ground-truth trials (BROAD metric)")
+    p.add_argument("--dataset", required=True, metavar="DIR", help="folder of BROAD-format .npz trials")
+    p.add_argument("--filter", default="all", help="a filter name, a peer (vqf, imufusion) or all")
+    p.add_argument("--dof", type=int, choices=[6, 9], help="6 (no magnetometer) or 9 (default: both)")
+    p.add_argument("--json", action="store_true")
+    p.add_argument("--readme", metavar="README.md", help="also rewrite the results table in this file")
+    p.set_defaults(func=cmd_evaluate)
+
+    p = sub.add_parser("fuse", help="run a filter over a recording or trial file")
+    p.add_argument("input", metavar="IN", help=".bin or .csv recording, or a .npz trial")
+    p.add_argument("--filter", default="default")
+    p.add_argument("--dof", type=int, choices=[6, 9], default=6)
+    p.add_argument("--out", required=True, metavar="OUT.npz")
+    p.set_defaults(func=cmd_fuse)
+
     p = sub.add_parser("virtual", help="serve a virtual board on a pty for other programs")
     p.add_argument("--link", help="stable path to create for the pty (a symlink)")
     p.add_argument("--rate", type=int, default=200)
@@ -350,7 +391,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (LinkError, RecordingError, UsageError) as e:
+    except (LinkError, RecordingError, DatasetError, UsageError) as e:
         print(f"armtracker: {e}", file=sys.stderr)
     except OSError as e:  # e.g. an output file in a folder that does not exist
         print(f"armtracker: {e.filename or ''}: {e.strerror or e}", file=sys.stderr)

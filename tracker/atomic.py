@@ -31,10 +31,14 @@ class AtomicFile:
 
     def commit(self) -> None:
         """Flush to disk and rename over the target."""
-        self.file.flush()
-        os.fsync(self.file.fileno())
-        self.file.close()
-        os.replace(self._tmp, self.path)
+        try:
+            self.file.flush()
+            os.fsync(self.file.fileno())
+            self.file.close()
+            os.replace(self._tmp, self.path)
+        except BaseException:
+            self.discard()
+            raise
 
     def discard(self) -> None:
         """Drop the temporary file; the target is untouched."""

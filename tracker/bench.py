@@ -11,7 +11,10 @@ import statistics
 import time
 from typing import Callable
 
+import numpy as np
+
 from . import protocol as P
+from .fusion import FILTERS, make
 
 FRAMES = 20_000
 REPEATS = 5
@@ -56,6 +59,69 @@ def encode_rate(n: int = FRAMES) -> float:
     return _median_rate(n, lambda: [P.encode_raw(s) for s in samples])
 
 
+FILTER_UPDATES = 5_000
+
+
+def _motion(n: int, seed: int = 0) -> tuple[list, list, list]:
+    """Plausible IMU rows: a slow rotation with noise (values do not affect the cost much)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / 200.0
+    gyr = np.stack([np.sin(t), np.cos(0.7 * t), 0.3 * np.sin(0.2 * t)], axis=1) + rng.normal(0, 0.01, (n, 3))
+    acc = np.array([0.0, 0.0, 9.81]) + rng.normal(0, 0.05, (n, 3))
+    mag = np.array([0.0, 20.0, -40.0]) + rng.normal(0, 0.3, (n, 3))
+    return gyr.tolist(), acc.tolist(), mag.tolist()
+
+
+def filter_rates(n: int = FILTER_UPDATES) -> dict[str, float]:
+    """Updates per second of each filter (and installed peer) called from a Python loop, 9D."""
+    gyr, acc, mag = _motion(n)
+    rates = {}
+    for name in FILTERS:
+        f = make(name)
+
+        def run(f=f) -> None:
+            f.reset()
+            for i in range(n):
+                f.update(gyr[i], acc[i], mag[i], 0.005)
+
+        rates[name] = round(_median_rate(n, run))
+    for name, step in _peer_steppers().items():
+        rates[name] = round(_median_rate(n, lambda step=step: step(gyr, acc, mag)))
+    return rates
+
+
+def _peer_steppers() -> dict[str, Callable[[list, list, list], None]]:
+    """Per-sample update loops of the installed peers, as a Python program would call them."""
+    steppers = {}
+    try:
+        import vqf
+
+        def vqf_loop(gyr: list, acc: list, mag: list) -> None:
+            f = vqf.VQF(0.005)
+            g, a, m = (np.asarray(x) for x in (gyr, acc, mag))
+            for i in range(len(g)):
+                f.update(g[i], a[i], m[i])
+                f.getQuat9D()
+
+        steppers["vqf"] = vqf_loop
+    except ImportError:
+        pass
+    try:
+        import imufusion
+
+        def fusion_loop(gyr: list, acc: list, mag: list) -> None:
+            ahrs = imufusion.Ahrs()
+            g, a, m = np.degrees(gyr), np.asarray(acc) / 9.81, np.asarray(mag)
+            for i in range(len(g)):
+                ahrs.update(g[i], a[i], m[i])
+                ahrs.get_quaternion()
+
+        steppers["imufusion"] = fusion_loop
+    except ImportError:
+        pass
+    return steppers
+
+
 def run_all() -> dict:
     """Every benchmark, as one JSON-ready object."""
     return {
@@ -63,4 +129,5 @@ def run_all() -> dict:
         "encode_frames_per_s": round(encode_rate()),
         "raw_frame_bytes": P.RAW_FRAME_SIZE,
         "link_utilisation_200hz_115200": round(P.link_utilisation(200), 4),
+        "filters": filter_rates(),
     }

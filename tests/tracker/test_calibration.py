@@ -1,0 +1,384 @@
+"""Calibration: rest detection, gyroscope bias, six-pose accelerometer fit, board files.
+
+Synthetic signals use the MPU-9250 data-sheet noise densities (ARCHITECTURE.md):
+gyroscope 0.01 deg/s/sqrt(Hz), accelerometer 300 ug/sqrt(Hz), sampled at 200 Hz.
+White noise of density D over the Nyquist band fs/2 has std D * sqrt(fs / 2): 0.1 deg/s
+(the data sheet's own total RMS figure) and 2.9e-2 m/s^2 per axis.
+"""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from tracker import calibration as C
+from tracker import protocol as P
+from tracker import quat
+
+FS = 200.0
+DT = 1.0 / FS
+G = C.GRAVITY
+DEG = math.pi / 180
+GYR_SIGMA = 0.01 * DEG * math.sqrt(FS / 2)
+ACC_SIGMA = 300e-6 * P.STANDARD_GRAVITY * math.sqrt(FS / 2)
+UP = np.array([0.0, 0.0, G])
+
+
+def still(rng, seconds, bias=(0.0, 0.0, 0.0), up=UP):
+    """(gyr, acc) of a board lying still: bias + noise, gravity + noise."""
+    n = round(seconds * FS)
+    gyr = np.asarray(bias) + rng.normal(0.0, GYR_SIGMA, (n, 3))
+    acc = np.asarray(up) + rng.normal(0.0, ACC_SIGMA, (n, 3))
+    return gyr, acc
+
+
+def swinging(rng, seconds, bias=(0.0, 0.0, 0.0)):
+    """(gyr, acc) of an arm swing: 45 deg/s at 0.5 Hz about z, 1 m/s^2 sideways, plus noise."""
+    gyr, acc = still(rng, seconds, bias)
+    phase = 2 * math.pi * 0.5 * DT * np.arange(len(gyr))
+    gyr[:, 2] += 45 * DEG * np.sin(phase)
+    acc[:, 0] += 1.0 * np.cos(phase)
+    return gyr, acc
+
+
+def join(*parts):
+    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+
+def run(detector, gyr, acc):
+    return np.array([detector.update(g, a, DT) for g, a in zip(gyr, acc)])
+
+
+def times(n):
+    return DT * np.arange(n)
+
+
+# ----------------------------------------------------------------- rest detection
+
+
+def test_rest_is_declared_after_the_minimum_duration_and_held():
+    gyr, acc = still(np.random.default_rng(1), 3.0, bias=(0.3 * DEG, -0.2 * DEG, 0.1 * DEG))
+    rest = run(C.RestDetector(), gyr, acc)
+    first = int(np.argmax(rest))
+    assert first * DT == pytest.approx(C.RestParams().min_duration - DT, abs=1.5 * DT)
+    assert rest[first:].all()
+
+
+def test_no_rest_during_motion_and_rest_again_after_it():
+    rng = np.random.default_rng(2)
+    gyr, acc = join(still(rng, 2.0), swinging(rng, 5.0), still(rng, 4.0))
+    rest = run(C.RestDetector(), gyr, acc)
+    start, stop = round(2.0 * FS), round(7.0 * FS)
+    assert rest[start - 1]
+    assert not rest[start + round(0.1 * FS):stop].any()
+    back = (int(np.argmax(rest[stop:])) + 1) * DT
+    assert 1.5 <= back <= 1.5 + 4 * C.RestParams().tau  # min duration + the low-pass settling
+
+
+def test_a_slow_steady_turn_is_not_rest():
+    gyr, acc = still(np.random.default_rng(3), 4.0, bias=(0.0, 0.0, 3.0 * DEG))
+    assert not run(C.RestDetector(), gyr, acc).any()
+
+
+def test_a_bad_sample_ends_rest_and_the_state_stays_finite():
+    gyr, acc = still(np.random.default_rng(4), 2.0)
+    detector = C.RestDetector()
+    assert run(detector, gyr, acc)[-1]
+    assert not detector.update((math.nan, 0, 0), UP, DT)
+    assert not detector.update((0, 0, 0), UP, math.nan)
+    state = detector.state
+    assert state.still_for == 0
+    assert np.isfinite(state.gyr_lp).all() and np.isfinite(state.acc_lp).all()
+
+
+def test_state_is_read_only():
+    detector = C.RestDetector()
+    detector.update((0, 0, 0), UP, DT)
+    detector.state.acc_lp[:] = 99
+    assert detector.state.acc_lp == pytest.approx(UP)
+    with pytest.raises(AttributeError):
+        detector.rest = True
+
+
+# ----------------------------------------------------------------- start-up bias
+
+
+BIAS = np.array([1.5, -2.0, 0.7]) * DEG
+
+
+def test_startup_recovers_a_known_bias_within_the_noise():
+    gyr, acc = still(np.random.default_rng(5), 2.0, BIAS)
+    result = C.startup_bias(times(len(gyr)), gyr, acc)
+    assert result.ok, result.message
+    bound = GYR_SIGMA / math.sqrt(len(gyr))  # std of the mean: 0.1 deg/s / sqrt(400) = 0.005 deg/s
+    assert np.abs(result.bias - BIAS).max() < 4 * bound
+    assert result.std_error == pytest.approx(np.full(3, bound), rel=0.2)
+    assert "deg/s" in result.message
+
+
+def test_moving_during_startup_is_rejected_with_a_reason():
+    rng = np.random.default_rng(6)
+    gyr, acc = join(still(rng, 0.8, BIAS), swinging(rng, 0.5, BIAS), still(rng, 0.8, BIAS))
+    result = C.startup_bias(times(len(gyr)), gyr, acc)
+    assert not result.ok
+    assert "moved" in result.message and "hold it still" in result.message
+    assert not result.bias.any()
+
+
+@pytest.mark.parametrize("seconds, bias, words", [
+    (0.5, BIAS, "only 0.50 s"),
+    (2.0, (0.0, 0.0, 10 * DEG), "turning slowly"),
+])
+def test_startup_rejects_short_windows_and_implausible_biases(seconds, bias, words):
+    gyr, acc = still(np.random.default_rng(7), seconds, bias)
+    result = C.startup_bias(times(len(gyr)), gyr, acc)
+    assert not result.ok and words in result.message
+
+
+def test_startup_from_raw_samples():
+    samples = [P.RawSample(i * DT, i * 5000, i, (0, 0, 2048), (3, -2, 1), None, 400)
+               for i in range(400)]
+    arrays = C.SampleArrays.from_samples(samples)
+    result = C.startup_bias(arrays.t, arrays.gyr, arrays.acc)
+    assert result.ok and result.bias == pytest.approx(samples[0].gyr)
+    assert np.isnan(arrays.mag).all()
+
+
+# ----------------------------------------------------------------- continuous bias
+
+
+def test_continuous_bias_tracks_a_changed_bias_and_holds_during_motion():
+    rng = np.random.default_rng(8)
+    new = BIAS + np.array([0.5, -0.5, 0.5]) * DEG  # a temperature drift, under gyr_max_rate
+    estimator = C.ContinuousBias(BIAS)
+    for g, a in zip(*join(still(rng, 3.0, BIAS), swinging(rng, 2.0, new))):
+        estimator.update(g, a, DT)
+    assert not estimator.rest
+    before = estimator.bias
+    gyr, acc = still(rng, 25.0, new)
+    corrected = np.array([estimator.update(g, a, DT) for g, a in zip(gyr, acc)])
+    assert estimator.rest
+    assert np.abs(before - BIAS).max() < 0.02 * DEG  # motion did not move it
+    # left after 23.5 s of rest at tau = 3 s: 0.5 deg/s * exp(-23.5 / 3) < 2e-4 deg/s; noise
+    # std sigma * sqrt(dt / (2 tau)) = 2.9e-3 deg/s: 0.02 deg/s is about 7 sigma.
+    assert np.abs(estimator.bias - new).max() < 0.02 * DEG
+    assert corrected[-1] == pytest.approx(gyr[-1] - estimator.bias)
+
+
+def test_seed002_baseline_finds_a_bias_at_rest():
+    baseline = C.ThresholdBias()
+    for g in still(np.random.default_rng(9), 0.5, BIAS)[0]:
+        baseline.update(g)
+    # a mean of 5 samples: std 0.1 deg/s / sqrt(5) = 0.045 deg/s
+    assert np.abs(baseline.bias - BIAS).max() < 4 * GYR_SIGMA / math.sqrt(5)
+
+
+def worst_error(rng, gyr, acc, bias):
+    """The largest bias error of the seed 002 baseline and of ContinuousBias over a run."""
+    baseline, continuous = C.ThresholdBias(bias=bias), C.ContinuousBias(bias)
+    worst = np.zeros(2)
+    for g, a in zip(gyr, acc):
+        baseline.update(g)
+        continuous.update(g, a, DT)
+        errors = [np.abs(e.bias - bias).max() for e in (baseline, continuous)]
+        worst = np.maximum(worst, errors)
+    return worst
+
+
+def test_seed002_baseline_takes_swing_reversals_and_slow_turns_for_bias():
+    """Seed 002's weakness: slow rates while moving become bias; VQF-style rest does not."""
+    rng = np.random.default_rng(10)
+    baseline, continuous = worst_error(rng, *swinging(rng, 3.0, BIAS), BIAS)
+    assert baseline > 1.0 * DEG and continuous == 0  # the swing's reversals pass under 6 deg/s
+    turn = BIAS + np.array([0, 0, 3.0]) * DEG
+    baseline, continuous = worst_error(rng, *still(rng, 4.0, turn), BIAS)
+    assert baseline > 2.5 * DEG and continuous == 0  # the 3 deg/s turn became "bias"
+
+
+# ----------------------------------------------------------------- six-pose accelerometer
+
+
+AXES = {"+x": (0, 1.0), "-x": (0, -1.0), "+y": (1, 1.0), "-y": (1, -1.0),
+        "+z": (2, 1.0), "-z": (2, -1.0)}
+OFFSET = np.array([0.3, -0.4, 0.5])  # m/s^2, within the data sheet's +-60 mg
+GAIN = np.array([1.02, 0.98, 1.01])  # raw / true
+TRUE_MISALIGNMENT = np.array([[1.0, 0.012, -0.008], [0.0, 1.0, 0.015], [0.0, 0.0, 1.0]])
+
+
+def pose(rng, force, misalignment=np.eye(3), wobble=None):
+    """A pose of 2 s: raw = (misalignment diag(1/gain))^-1 force + offset + noise."""
+    A = misalignment @ np.diag(1 / GAIN)
+    gyr, acc = still(rng, 2.0, up=np.linalg.solve(A, force) + OFFSET)
+    if wobble is not None:
+        acc[len(acc) // 2:] += wobble
+    return C.Pose(acc, gyr)
+
+
+def axis_force(rng, label, tilt_deg=3.0):
+    """Specific force with ``label`` up, leaning by up to ``tilt_deg``."""
+    axis, sign = AXES[label]
+    f = np.zeros(3)
+    f[axis] = sign * G
+    lean = quat.from_rotvec(rng.uniform(-1, 1, 3) * tilt_deg * DEG / math.sqrt(3))
+    return quat.rotate(lean, f)
+
+
+def six(rng, labels=tuple(AXES), misalignment=np.eye(3)):
+    return [pose(rng, axis_force(rng, label), misalignment) for label in labels]
+
+
+def test_six_poses_recover_offset_and_scale_even_when_leaning():
+    rng = np.random.default_rng(10)
+    poses = six(rng)
+    rng.shuffle(poses)
+    result = C.six_pose_calibration(poses)
+    assert result.ok, result.message
+    # each pose mean has std 2.9e-2 / sqrt(400) = 1.5e-3 m/s^2 per axis
+    assert result.offset == pytest.approx(OFFSET, abs=0.01)
+    assert result.scale == pytest.approx(1 / GAIN, abs=1e-3)
+    assert result.misalignment == pytest.approx(np.eye(3))
+
+
+def test_six_poses_plus_tilted_ones_recover_the_misalignment():
+    rng = np.random.default_rng(11)
+    tilted = [pose(rng, G * d / np.linalg.norm(d), TRUE_MISALIGNMENT)
+              for d in rng.normal(size=(6, 3))]
+    result = C.six_pose_calibration(six(rng, misalignment=TRUE_MISALIGNMENT), tilted,
+                                    misalignment=True)
+    assert result.ok, result.message
+    assert result.offset == pytest.approx(OFFSET, abs=0.01)
+    assert result.scale == pytest.approx(1 / GAIN, abs=2e-3)
+    assert result.misalignment == pytest.approx(TRUE_MISALIGNMENT, abs=2e-3)
+    assert result.residual < 3 * ACC_SIGMA / math.sqrt(400)
+
+
+def test_misalignment_needs_extra_poses():
+    result = C.six_pose_calibration(six(np.random.default_rng(12)), misalignment=True)
+    assert not result.ok and "3 extra still poses" in result.message
+
+
+def bad_pose_sets(rng):
+    good = six(rng)
+    moved = list(good)
+    moved[2] = pose(rng, axis_force(rng, "+y"), wobble=np.array([0.0, 0.0, 1.5]))
+    leaning = list(good)
+    leaning[4] = pose(rng, quat.rotate(quat.from_rotvec([0.0, 35 * DEG, 0.0]), [0, 0, G]))
+    return {
+        "missing": (good[:5], "-z up missing"),
+        "twice": (good[:5] + [good[0]], "poses 1 and 6 both have +x up"),
+        "moved": (moved, "pose 3 was not still"),
+        "leaning": (leaning, "pose 5 leans 35 deg"),
+    }
+
+
+@pytest.mark.parametrize("case", ["missing", "twice", "moved", "leaning"])
+def test_bad_pose_sets_are_rejected_with_a_reason(case):
+    poses, words = bad_pose_sets(np.random.default_rng(13))[case]
+    result = C.six_pose_calibration(poses)
+    assert not result.ok
+    assert words in result.message
+    assert result.scale == pytest.approx(np.ones(3))
+
+
+# ----------------------------------------------------------------- board calibration
+
+
+def calibrated():
+    return C.BoardCalibration(
+        "fw-1.0_alice", gyro_bias=BIAS, acc_offset=OFFSET, acc_scale=1 / GAIN,
+        acc_misalignment=TRUE_MISALIGNMENT, mag_hard_iron=[10.0, -5.0, 3.0],
+        mag_soft_iron=np.diag([1.1, 0.9, 1.0]))
+
+
+def test_defaults_correct_nothing_and_apply_undoes_the_sensor_model():
+    acc, gyr, mag = UP, BIAS, np.array([20.0, 5.0, -40.0])
+    plain = C.BoardCalibration().apply_arrays(acc, gyr, mag)
+    assert plain.acc == pytest.approx(acc) and plain.gyr == pytest.approx(gyr)
+    assert plain.mag == pytest.approx(mag)
+    cal = calibrated()
+    raw = np.linalg.solve(TRUE_MISALIGNMENT @ np.diag(1 / GAIN), acc) + OFFSET
+    out = cal.apply_arrays(raw, gyr, mag)
+    assert out.acc == pytest.approx(acc) and out.gyr == pytest.approx(np.zeros(3))
+    assert out.mag == pytest.approx(np.diag([1.1, 0.9, 1.0]) @ (mag - [10.0, -5.0, 3.0]))
+
+
+def test_apply_works_on_one_sample_and_on_arrays_alike():
+    cal = calibrated()
+    samples = [P.RawSample(0.0, 0, i, (i, -200, 2048), (10, -5, i), (100, 200, -300), 400)
+               for i in range(4)]
+    batch = C.SampleArrays.from_samples(samples)
+    many = cal.apply_arrays(batch.acc, batch.gyr, batch.mag)
+    for i, s in enumerate(samples):
+        one = cal.apply(s)
+        assert one.acc == pytest.approx(many.acc[i]) and one.gyr == pytest.approx(many.gyr[i])
+        assert one.mag == pytest.approx(many.mag[i])
+    no_mag = P.RawSample(0.0, 0, 0, (0, 0, 2048), (0, 0, 0), None, 400)
+    assert cal.apply(no_mag).mag is None
+
+
+def test_bad_values_are_refused():
+    with pytest.raises(ValueError, match="acc_scale"):
+        C.BoardCalibration(acc_scale=[1.0, math.nan, 1.0])
+    with pytest.raises(ValueError, match="board id"):
+        C.BoardCalibration("../escape")
+
+
+def test_board_id_is_a_safe_file_name():
+    assert C.make_board_id("EnergyBall fw 1.2", "Zoë K") == "EnergyBall-fw-1.2_Zo-K"
+    assert C.make_board_id("///", "") == "default"
+
+
+def test_save_and_load_round_trip_atomically(tmp_path):
+    cal = calibrated()
+    path = C.save(cal, tmp_path / "boards")
+    assert path == tmp_path / "boards" / "fw-1.0_alice.json"
+    C.save(cal, tmp_path / "boards")  # overwriting leaves nothing behind either
+    assert [p.name for p in path.parent.iterdir()] == [path.name]
+    back = C.load("fw-1.0_alice", tmp_path / "boards")
+    assert back.to_json() == cal.to_json()
+    assert json.loads(path.read_text())["version"] == C.VERSION
+
+
+def test_default_folder_is_per_user(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path))
+    assert C.calibration_path("b1") == tmp_path / "energyball" / "boards" / "b1.json"
+    monkeypatch.delenv("XDG_CONFIG_HOME")
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    assert C.boards_dir() == tmp_path / "home" / ".config" / "energyball" / "boards"
+
+
+def write(tmp_path, text):
+    (tmp_path / "b1.json").write_text(text)
+
+
+def edited(**changes):
+    """Board b1's default file text with some fields changed."""
+    return json.dumps({**C.BoardCalibration("b1").to_json(), **changes})
+
+
+@pytest.mark.parametrize("text, words", [
+    (None, "no calibration saved"),
+    ('{"format": "energyball board calibration", "vers', "damaged (not valid JSON"),
+    ("[1, 2]", "not an EnergyBall board calibration"),
+    (edited(version=2), "format version 2"),
+    (edited(acc_scale=[1, 2]), "acc_scale must be 3"),
+    (edited(board_id="b2"), "holds board 'b2'"),
+])
+def test_unreadable_files_give_a_clear_error(tmp_path, text, words):
+    if text is not None:
+        write(tmp_path, text)
+    with pytest.raises(C.CalibrationFileError, match="board calibration .*b1.json") as e:
+        C.load("b1", tmp_path)
+    assert words in str(e.value)
+    assert e.value.path == tmp_path / "b1.json"
+
+
+def test_load_or_default_gives_defaults_and_a_notice(tmp_path):
+    write(tmp_path, "{not json")
+    cal, notice = C.load_or_default("b1", tmp_path)
+    assert cal.to_json() == C.BoardCalibration("b1").to_json()
+    assert "damaged" in notice and "using the default calibration" in notice
+    C.save(calibrated(), tmp_path)
+    cal, notice = C.load_or_default("fw-1.0_alice", tmp_path)
+    assert cal.to_json() == calibrated().to_json() and "loaded" in notice

@@ -1,0 +1,733 @@
+"""Calibration: rest detection, gyroscope bias, six-pose accelerometer calibration, board files.
+
+What a board's sensors get wrong, measured here and undone before fusion
+(ARCHITECTURE.md: ``tracker.protocol`` -> here -> ``tracker.fusion``). SI units
+throughout: seconds, rad/s, m/s^2 (specific force, +g on the up axis at rest),
+microtesla.
+
+- :class:`RestDetector`: is the board lying still? The idea of VQF's rest
+  detection: low-pass the gyroscope and the accelerometer, call a sample still
+  while it stays near its low-passed value, and declare rest once the samples
+  have been still for a minimum time.
+- Gyroscope bias: :func:`startup_bias` ("hold still" at start-up: the mean over
+  a still window), :class:`ContinuousBias` (re-estimated slowly during every
+  rest phase) and :class:`ThresholdBias`, seed 002's method kept as the baseline.
+- :func:`six_pose_calibration`: accelerometer offset, scale and, optionally, a
+  small misalignment, from the board held still with each axis up and down.
+- :class:`BoardCalibration`: all of it for one board, applied to samples, saved
+  per board as JSON (atomically) and loaded with clear errors.
+
+Seed 000 sec. 6 lists weaknesses this module answers in part: the yaw drift its
+complementary filter cannot correct (a gyroscope bias about the vertical is what
+drives it, so removing the bias slows it) and differences from board to board
+(kept per board id).
+
+References
+    VQF: D. Laidig and T. Seel, "VQF: Highly Accurate IMU Orientation Estimation
+    with Bias Estimation and Magnetic Disturbance Rejection", Information Fusion
+    91 (2023) 187-204, doi:10.1016/j.inffus.2022.10.014; its rest detection,
+    part of its rest bias estimation (defaults: 2 deg/s, 0.5 m/s^2, 1.5 s, 0.5 s).
+    Seed 002: ../shared/papers/002_*.txt, sec. 2.2 "Bias Offset Estimation", eq. 2.
+    Tedaldi 2014: D. Tedaldi, A. Pretto and E. Menegatti, "A robust and easy to
+    implement method for IMU calibration without external equipments", ICRA 2014:
+    static poses, a triangular misalignment times a scale, and a cost that
+    compares each calibrated pose's norm with g.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import os
+import re
+from collections import deque
+from dataclasses import Field, dataclass, field, fields
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .atomic import atomic_write
+from .protocol import RawSample
+
+Array = NDArray[np.float64]
+
+DEG = math.pi / 180.0  # rad per degree
+GRAVITY = 9.81  # m/s^2, the world gravity of ARCHITECTURE.md
+
+
+def _vec3(x: ArrayLike) -> Array:
+    v = np.asarray(x, dtype=np.float64)
+    if v.shape != (3,):
+        raise ValueError(f"expected 3 numbers, got shape {v.shape}")
+    return v
+
+
+def _rows(x: ArrayLike, what: str) -> Array:
+    a = np.asarray(x, dtype=np.float64)
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise ValueError(f"{what} must be an (N, 3) array, got shape {a.shape}")
+    return a
+
+
+def _lowpass_gain(dt: float, tau: float) -> float:
+    """Gain k of the first-order low-pass ``y += k (x - y)``: k = 1 - exp(-dt / tau)."""
+    return 1.0 - math.exp(-dt / tau)
+
+
+def _deg(v: Array) -> str:
+    """A rate vector in rad/s, written in deg/s for the user."""
+    return "(" + ", ".join(f"{x / DEG:+.3f}" for x in v) + ") deg/s"
+
+
+@dataclass(frozen=True, eq=False)
+class SampleArrays:
+    """Raw samples as arrays: ``t`` (N,) s, ``acc`` m/s^2, ``gyr`` rad/s, ``mag`` uT, each (N, 3).
+
+    ``mag`` rows are NaN where a sample had no magnetometer reading.
+    """
+
+    t: Array
+    acc: Array
+    gyr: Array
+    mag: Array
+
+    @classmethod
+    def from_samples(cls, samples: Sequence[RawSample]) -> "SampleArrays":
+        """Stack a list of samples (converted to SI by :class:`RawSample`)."""
+        nan = (math.nan, math.nan, math.nan)
+        return cls(np.array([s.t for s in samples], dtype=np.float64),
+                   np.array([s.acc for s in samples], dtype=np.float64).reshape(-1, 3),
+                   np.array([s.gyr for s in samples], dtype=np.float64).reshape(-1, 3),
+                   np.array([s.mag or nan for s in samples], dtype=np.float64).reshape(-1, 3))
+
+
+# ----------------------------------------------------------------- rest detection
+
+
+@dataclass(frozen=True)
+class RestParams:
+    """Settings of :class:`RestDetector`; the defaults are VQF's rest-detection defaults.
+
+    ``gyr_threshold``: a gyroscope sample is still while it stays this close (norm,
+    rad/s) to its low-passed value (VQF: 2 deg/s). ``acc_threshold``: the same for
+    the accelerometer, m/s^2 (VQF: 0.5 m/s^2). ``gyr_max_rate``: the low-passed rate
+    must also stay below this on every axis (rad/s), so that a slow steady turn, which
+    deviates from nothing, is not taken for rest (VQF's bias clip, 2 deg/s); feed
+    bias-corrected rates, as :class:`ContinuousBias` does. ``min_duration``: seconds
+    of stillness before rest is declared (VQF: 1.5 s). ``tau``: time constant of the
+    low-pass, s (VQF: 0.5 s, with a second-order Butterworth filter; first order here).
+    """
+
+    gyr_threshold: float = 2.0 * DEG
+    acc_threshold: float = 0.5
+    gyr_max_rate: float = 2.0 * DEG
+    min_duration: float = 1.5
+    tau: float = 0.5
+
+
+@dataclass
+class RestState:
+    """What a :class:`RestDetector` remembers between samples."""
+
+    gyr_lp: Array | None = None  # low-passed gyroscope, rad/s (None before the first sample)
+    acc_lp: Array | None = None  # low-passed accelerometer, m/s^2
+    still_for: float = 0.0  # seconds the samples have been still
+    rest: bool = False
+
+
+def _still(gyr: Array, acc: Array, s: RestState, p: RestParams) -> bool:
+    """VQF's rest test for one sample: near the low-passed values, low-passed rate small."""
+    return bool(np.linalg.norm(gyr - s.gyr_lp) < p.gyr_threshold
+                and np.linalg.norm(acc - s.acc_lp) < p.acc_threshold
+                and np.max(np.abs(s.gyr_lp)) < p.gyr_max_rate)
+
+
+class RestDetector:
+    """Streaming rest detection after the idea of VQF (Laidig & Seel 2023), own code.
+
+    Each sample updates first-order low-passes of the gyroscope and accelerometer;
+    the sample is still when it is within the thresholds of them (:func:`_still`);
+    rest is declared once the samples have been still for ``min_duration`` and ends
+    with the first sample that is not. A non-finite sample or time step ends rest too.
+    """
+
+    def __init__(self, params: RestParams | None = None) -> None:
+        self.params = params or RestParams()
+        self._state = RestState()
+
+    @property
+    def state(self) -> RestState:
+        """A copy of the state (changing it does not change the detector)."""
+        return copy.deepcopy(self._state)
+
+    @property
+    def rest(self) -> bool:
+        """Whether the last sample was at rest."""
+        return self._state.rest
+
+    def reset(self) -> None:
+        """Forget everything; the next sample starts afresh."""
+        self._state = RestState()
+
+    def update(self, gyr: ArrayLike, acc: ArrayLike, dt: float) -> bool:
+        """Feed one sample (rad/s, m/s^2, seconds since the last); whether the board is at rest."""
+        g, a, s = _vec3(gyr), _vec3(acc), self._state
+        if not (np.all(np.isfinite(g)) and np.all(np.isfinite(a)) and math.isfinite(dt) and dt > 0):
+            s.still_for, s.rest = 0.0, False
+            return False
+        if s.gyr_lp is None or s.acc_lp is None:
+            s.gyr_lp, s.acc_lp = g.copy(), a.copy()
+        k = _lowpass_gain(dt, self.params.tau)
+        s.gyr_lp += k * (g - s.gyr_lp)
+        s.acc_lp += k * (a - s.acc_lp)
+        s.still_for = s.still_for + dt if _still(g, a, s, self.params) else 0.0
+        s.rest = s.still_for >= self.params.min_duration - 1e-9
+        return s.rest
+
+
+# ----------------------------------------------------------------- gyroscope bias
+
+
+def _motion(gyr: Array, acc: Array, p: RestParams) -> str | None:
+    """Why a window of samples is not still, or None.
+
+    The window form of VQF's rest test: every sample must lie within the rest
+    thresholds of the window's mean (the mean stands in for the low-pass).
+    """
+    dg = float(np.max(np.linalg.norm(gyr - gyr.mean(axis=0), axis=1)))
+    da = float(np.max(np.linalg.norm(acc - acc.mean(axis=0), axis=1)))
+    if dg >= p.gyr_threshold:
+        return (f"the gyroscope strayed {dg / DEG:.1f} deg/s from its mean "
+                f"(still means under {p.gyr_threshold / DEG:.1f} deg/s)")
+    if da >= p.acc_threshold:
+        return (f"the accelerometer strayed {da:.2f} m/s^2 from its mean "
+                f"(still means under {p.acc_threshold:.2f} m/s^2)")
+    return None
+
+
+def _covered(t: Array) -> float:
+    """Seconds a window of sample times covers (each sample one median period)."""
+    return float(t[-1] - t[0] + np.median(np.diff(t))) if len(t) > 1 else 0.0
+
+
+@dataclass(frozen=True)
+class StartupParams:
+    """Settings of :func:`startup_bias`.
+
+    ``duration``: seconds of stillness to average. ``max_bias``: a larger mean rate
+    on any axis (rad/s) is refused: the MPU-9250's zero-rate offset is within
+    +-5 deg/s (data sheet), so 8 deg/s means a slow turn or a faulty gyroscope.
+    ``rest``: the stillness thresholds (see :func:`_motion`).
+    """
+
+    duration: float = 2.0
+    max_bias: float = 8.0 * DEG
+    rest: RestParams = field(default_factory=RestParams)
+
+
+@dataclass(frozen=True, eq=False)
+class BiasResult:
+    """The outcome of a start-up bias estimate; ``message`` says what happened, for the user.
+
+    ``bias`` and ``std_error`` (the standard error of the mean, sample std / sqrt(N))
+    are rad/s per axis, zeros when ``ok`` is false; ``duration`` is the seconds used.
+    """
+
+    ok: bool
+    message: str
+    bias: Array
+    std_error: Array
+    duration: float
+
+
+def _startup_problem(t: Array, gyr: Array, acc: Array, p: StartupParams) -> str | None:
+    """Why a start-up window cannot give a bias, or None."""
+    if not (len(t) == len(gyr) == len(acc)):
+        return "the sample arrays differ in length"
+    if len(t) < 2:
+        return f"no samples; hold the board still for {p.duration:g} s"
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(gyr)) and np.all(np.isfinite(acc))):
+        return "some readings are missing or not finite; try again"
+    if _covered(t) < p.duration - 1e-9:
+        return (f"only {_covered(t):.2f} s of samples; hold the board still for "
+                f"{p.duration:g} s")
+    moved = _motion(gyr, acc, p.rest)
+    if moved:
+        return f"the board moved during start-up: {moved}; hold it still and try again"
+    mean = gyr.mean(axis=0)
+    if np.max(np.abs(mean)) > p.max_bias:
+        return (f"the gyroscope read {_deg(mean)} while still, more than the "
+                f"{p.max_bias / DEG:g} deg/s a resting MPU-9250 shows: the board was turning "
+                f"slowly, or its gyroscope is faulty; hold it still and try again")
+    return None
+
+
+def startup_bias(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
+                 params: StartupParams | None = None) -> BiasResult:
+    """The gyroscope bias from a "hold still" window at start-up: the mean rate.
+
+    ``t`` is (N,) seconds, ``gyr`` (N, 3) rad/s, ``acc`` (N, 3) m/s^2. At rest the
+    gyroscope reads only bias plus noise (seed 002 sec. 2.2), so the mean of N
+    samples estimates the bias with standard error sigma / sqrt(N) per axis (for
+    white noise of std sigma). A window that is too short, in which the board moved,
+    or whose mean rate is implausibly large, is refused with the reason.
+    """
+    p = params or StartupParams()
+    tt = np.asarray(t, dtype=np.float64)
+    g, a = _rows(gyr, "gyr"), _rows(acc, "acc")
+    problem = _startup_problem(tt, g, a, p)
+    if problem:
+        return BiasResult(False, problem, np.zeros(3), np.zeros(3), _covered(tt))
+    bias = g.mean(axis=0)
+    std_error = g.std(axis=0, ddof=1) / math.sqrt(len(g))
+    return BiasResult(True, f"gyroscope bias {_deg(bias)} from {_covered(tt):.1f} s still",
+                      bias, std_error, _covered(tt))
+
+
+@dataclass(frozen=True)
+class ContinuousBiasParams:
+    """Settings of :class:`ContinuousBias`.
+
+    ``tau``: time constant (s) of the running average during rest; with white noise
+    of std sigma per sample and dt << tau the estimate's std is about
+    sigma * sqrt(dt / (2 tau)). ``rest``: the rest detector's settings.
+    """
+
+    tau: float = 3.0
+    rest: RestParams = field(default_factory=RestParams)
+
+
+class ContinuousBias:
+    """The gyroscope bias, re-estimated during every rest phase.
+
+    After VQF's rest bias estimation (Laidig & Seel 2023), which averages the
+    gyroscope while its rest detector says rest; there a Kalman filter, here a slow
+    first-order average: ``b += k (omega - b)``, k = 1 - exp(-dt / tau). The rest
+    detector sees the bias-corrected rate, so its ``gyr_max_rate`` bounds how far the
+    bias can move between rest phases; a bigger jump needs :func:`startup_bias` again.
+    """
+
+    def __init__(self, bias: ArrayLike = (0.0, 0.0, 0.0),
+                 params: ContinuousBiasParams | None = None) -> None:
+        self.params = params or ContinuousBiasParams()
+        self._bias = _vec3(bias).copy()
+        self._detector = RestDetector(self.params.rest)
+
+    @property
+    def bias(self) -> Array:
+        """The current estimate, rad/s (a copy)."""
+        return self._bias.copy()
+
+    @property
+    def rest(self) -> bool:
+        """Whether the last sample was at rest (and so went into the average)."""
+        return self._detector.rest
+
+    def update(self, gyr: ArrayLike, acc: ArrayLike, dt: float) -> Array:
+        """Feed one sample; the bias-corrected rate omega_B = omega_0 - b (seed 002 eq. 2)."""
+        g = _vec3(gyr)
+        if self._detector.update(g - self._bias, acc, dt):
+            self._bias += _lowpass_gain(dt, self.params.tau) * (g - self._bias)
+        return g - self._bias
+
+
+@dataclass(frozen=True)
+class ThresholdBiasParams:
+    """Settings of :class:`ThresholdBias` (seed 002 sec. 2.2).
+
+    ``threshold``: rate norm (rad/s) below which a sample counts; the paper gives no
+    value: 6 deg/s sits above the MPU-9250's +-5 deg/s zero-rate offset, so a still
+    but uncalibrated board qualifies. ``count``: consecutive samples averaged; the
+    paper's 5 (250 ms at its rate; 25 ms at 200 Hz).
+    """
+
+    threshold: float = 6.0 * DEG
+    count: int = 5
+
+
+class ThresholdBias:
+    """Seed 002's bias offset estimation (sec. 2.2, eq. 2), kept as the baseline.
+
+    A new bias is the arithmetic mean of the last ``count`` consecutive samples whose
+    rate is below ``threshold``; eq. 2 subtracts it: omega_B = omega_0 - b. Its
+    weaknesses, which :class:`ContinuousBias` answers: a slow turn under the
+    threshold is taken for bias, and a mean of five noisy samples is itself noisy
+    (std sigma / sqrt(5)).
+    """
+
+    def __init__(self, params: ThresholdBiasParams | None = None,
+                 bias: ArrayLike = (0.0, 0.0, 0.0)) -> None:
+        self.params = params or ThresholdBiasParams()
+        self._bias = _vec3(bias).copy()
+        self._run: deque[Array] = deque(maxlen=self.params.count)
+
+    @property
+    def bias(self) -> Array:
+        """The current estimate, rad/s (a copy)."""
+        return self._bias.copy()
+
+    def update(self, gyr: ArrayLike) -> Array:
+        """Feed one sample; the bias-corrected rate (seed 002 eq. 2)."""
+        g = _vec3(gyr)
+        if np.all(np.isfinite(g)) and np.linalg.norm(g) < self.params.threshold:
+            self._run.append(g)
+        else:
+            self._run.clear()
+        if len(self._run) == self.params.count:
+            self._bias = np.mean(self._run, axis=0)
+        return g - self._bias
+
+
+# ----------------------------------------------------------------- six-pose accelerometer
+
+
+POSE_LABELS = ("+x", "-x", "+y", "-y", "+z", "-z")  # which axis points up, in that order
+_DIAGONAL = np.eye(3, dtype=bool)
+_UPPER = np.triu(np.ones((3, 3), dtype=bool))
+
+
+@dataclass(frozen=True, eq=False)
+class Pose:
+    """One pose held still: accelerometer (N, 3) m/s^2 and gyroscope (N, 3) rad/s samples."""
+
+    acc: Array
+    gyr: Array
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "acc", _rows(self.acc, "a pose's acc"))
+        object.__setattr__(self, "gyr", _rows(self.gyr, "a pose's gyr"))
+
+    @classmethod
+    def from_samples(cls, samples: Sequence[RawSample]) -> "Pose":
+        """A pose from the raw samples recorded while the user held it."""
+        arrays = SampleArrays.from_samples(samples)
+        return cls(arrays.acc, arrays.gyr)
+
+
+@dataclass(frozen=True)
+class PoseParams:
+    """Settings of :func:`six_pose_calibration`.
+
+    ``gravity``: the norm every calibrated pose should have, m/s^2. ``max_tilt``: an
+    axis pose may lean this far (rad) from its axis. ``min_samples``: samples a pose
+    needs. ``rest``: the stillness thresholds (see :func:`_motion`).
+    """
+
+    gravity: float = GRAVITY
+    max_tilt: float = 20.0 * DEG
+    min_samples: int = 10
+    rest: RestParams = field(default_factory=RestParams)
+
+
+@dataclass(frozen=True, eq=False)
+class SixPoseResult:
+    """The outcome of :func:`six_pose_calibration`; ``message`` says what happened, for the user.
+
+    The calibrated reading is ``misalignment @ (scale * (acc - offset))``; ``offset`` in
+    m/s^2, ``scale`` unitless, ``misalignment`` 3x3 with unit diagonal (identity unless
+    solved); ``residual`` is the RMS of |calibrated pose| - g, m/s^2. When ``ok`` is
+    false the values are the identity calibration.
+    """
+
+    ok: bool
+    message: str
+    offset: Array
+    scale: Array
+    misalignment: Array
+    residual: float
+
+
+def _label(mean: Array) -> tuple[str, float]:
+    """Which axis points up in a pose, and how far (rad) the pose leans from it."""
+    axis = int(np.argmax(np.abs(mean)))
+    cos_tilt = abs(mean[axis]) / np.linalg.norm(mean)
+    return ("+" if mean[axis] > 0 else "-") + "xyz"[axis], math.acos(min(1.0, cos_tilt))
+
+
+def _pose_problem(poses: Sequence[Pose], first: int, p: PoseParams) -> str | None:
+    """Why a pose (numbered from ``first`` for the user) cannot be used, or None."""
+    for number, pose in enumerate(poses, start=first):
+        if len(pose.acc) < p.min_samples or len(pose.gyr) < p.min_samples:
+            return f"pose {number} has too few samples; hold each pose for a second or two"
+        if not (np.all(np.isfinite(pose.acc)) and np.all(np.isfinite(pose.gyr))):
+            return f"pose {number} has missing or non-finite readings; record it again"
+        moved = _motion(pose.gyr, pose.acc, p.rest)
+        if moved:
+            return f"pose {number} was not still: {moved}; hold it still and record it again"
+    return None
+
+
+def _label_problem(means: Sequence[Array], p: PoseParams) -> str | None:
+    """Why the axis poses are not one each of +x, -x, +y, -y, +z, -z (held flat), or None."""
+    seen: dict[str, int] = {}
+    for number, mean in enumerate(means, start=1):
+        label, tilt = _label(mean)
+        if tilt > p.max_tilt:
+            return (f"pose {number} leans {tilt / DEG:.0f} deg from its nearest axis ({label} up); "
+                    f"rest the board flat on one face (under {p.max_tilt / DEG:.0f} deg)")
+        if label in seen:
+            return (f"poses {seen[label]} and {number} both have {label} up; each axis must "
+                    f"point up once and down once")
+        seen[label] = number
+    missing = [label for label in POSE_LABELS if label not in seen]
+    if missing:
+        return (f"pose{'s' if len(missing) > 1 else ''} with {', '.join(missing)} up "
+                f"missing; six poses are needed, each axis up once and down once")
+    return None
+
+
+def _initial_guess(means: Sequence[Array], g: float) -> tuple[Array, Array]:
+    """Offset and diagonal A from the classic six-position formulas.
+
+    With u_i and d_i the axis-i readings with axis i up and down: offset_i =
+    (u_i + d_i) / 2 and scale_i = 2 g / (u_i - d_i) (exact for level poses; the fit
+    in :func:`_fit` removes the error that tilted poses leave).
+    """
+    by_label = {_label(m)[0]: m for m in means}
+    up = np.array([by_label["+" + a][i] for i, a in enumerate("xyz")])
+    down = np.array([by_label["-" + a][i] for i, a in enumerate("xyz")])
+    return (up + down) / 2, np.diag(2 * g / (up - down))
+
+
+def _residuals(a: Array, b: Array, A: Array, g: float,
+               free: NDArray[np.bool_]) -> tuple[Array, Array]:
+    """Residuals r_k = |A (a_k - b)| - g (Tedaldi 2014's cost, on norms) and their Jacobian.
+
+    With d = a_k - b, v = A d and u = v / |v|: dr/db = -u^T A and dr/dA_ij = u_i d_j;
+    the Jacobian's columns are b's three, then A's ``free`` entries in row order.
+    """
+    d = a - b
+    v = d @ A.T
+    n = np.linalg.norm(v, axis=1)
+    u = v / n[:, None]
+    jac_a = u[:, :, None] * d[:, None, :]
+    return n - g, np.hstack([-(u @ A), jac_a[:, free]])
+
+
+def _fit(a: Array, g: float, b: Array, A: Array,
+         free: NDArray[np.bool_]) -> tuple[Array, Array, Array, Array]:
+    """Gauss-Newton on sum_k (|A (a_k - b)| - g)^2 over b and A's ``free`` entries.
+
+    Returns (b, A, residuals, Jacobian) at the solution.
+    """
+    for _ in range(50):
+        r, jac = _residuals(a, b, A, g, free)
+        step = np.linalg.lstsq(jac, -r, rcond=None)[0]
+        b, A = b + step[:3], A.copy()
+        A[free] += step[3:]
+        if np.max(np.abs(step)) < 1e-12:
+            break
+    r, jac = _residuals(a, b, A, g, free)
+    return b, A, r, jac
+
+
+def _failed(message: str) -> SixPoseResult:
+    return SixPoseResult(False, message, np.zeros(3), np.ones(3), np.eye(3), math.nan)
+
+
+def six_pose_calibration(poses: Sequence[Pose], extra: Sequence[Pose] = (),
+                         misalignment: bool = False,
+                         params: PoseParams | None = None) -> SixPoseResult:
+    """Accelerometer offset, scale and optional misalignment from still poses.
+
+    ``poses``: six, each axis once up and once down, in any order (each is labelled
+    by the axis its mean points along). The model (Tedaldi 2014) is
+    ``a_true = A (a_raw - b)``; at rest |a_true| = g, so b and A minimise
+    sum_k (|A (mean_k - b)| - g)^2 (:func:`_fit`, started from the six-position
+    formulas of :func:`_initial_guess`). Without misalignment A is diagonal: six
+    unknowns, solved exactly by six poses even when they lean a little. With
+    ``misalignment=True`` A is upper triangular (the triangular form removes the
+    rotation that the norm cannot see: the calibrated z axis follows the sensor's z
+    axis and y stays in the sensor's y-z plane): nine unknowns, so ``extra`` must
+    add at least three still poses in other orientations (tilted 45 deg, say).
+    A = misalignment @ diag(scale). Bad pose sets are refused with the reason: a
+    pose missing, not still, leaning too far, or two poses the same.
+    """
+    p = params or PoseParams()
+    problem = _pose_problem(poses, 1, p) or _pose_problem(extra, len(poses) + 1, p)
+    means = [pose.acc.mean(axis=0) for pose in poses]
+    problem = problem or _label_problem(means, p)
+    if misalignment and not problem and len(extra) < 3:
+        problem = (f"solving the misalignment needs at least 3 extra still poses in other "
+                   f"orientations (got {len(extra)}); tilt the board about 45 deg for each")
+    if problem:
+        return _failed(problem)
+    a = np.array(means + [pose.acc.mean(axis=0) for pose in extra])
+    b, A = _initial_guess(means, p.gravity)
+    b, A, r, jac = _fit(a, p.gravity, b, A, _UPPER if misalignment else _DIAGONAL)
+    if np.linalg.matrix_rank(jac) < jac.shape[1]:
+        return _failed("the extra poses do not pin down the misalignment; "
+                       "tilt the board about different axes for them")
+    scale = np.diag(A).copy()
+    residual = float(np.sqrt(np.mean(r ** 2)))
+    return SixPoseResult(True, f"accelerometer offset ({', '.join(f'{x:+.3f}' for x in b)}) m/s^2, "
+                         f"scale ({', '.join(f'{x:.4f}' for x in scale)}), residual "
+                         f"{residual:.3f} m/s^2 over {len(a)} poses",
+                         b, scale, A / scale[None, :], residual)
+
+
+# ----------------------------------------------------------------- board calibration
+
+
+FORMAT = "energyball board calibration"
+VERSION = 1
+_BOARD_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,79}")
+
+
+@dataclass(frozen=True, eq=False)
+class Corrected:
+    """Calibrated readings, each (..., 3): ``acc`` m/s^2, ``gyr`` rad/s, ``mag`` uT or None."""
+
+    acc: Array
+    gyr: Array
+    mag: Array | None
+
+
+@dataclass(frozen=True, eq=False)
+class BoardCalibration:
+    """Everything calibrated for one board; the defaults correct nothing.
+
+    :meth:`apply_arrays` computes
+        gyr_cal = gyr - gyro_bias                                (seed 002 eq. 2)
+        acc_cal = acc_misalignment @ (acc_scale * (acc - acc_offset))   (Tedaldi 2014)
+        mag_cal = mag_soft_iron @ (mag - mag_hard_iron)          (hard/soft iron)
+    in rad/s, m/s^2 and uT. ``board_id`` names the board's file (see :func:`make_board_id`).
+    Arrays are validated (shape, finite) on construction; a bad one is a ValueError.
+    """
+
+    board_id: str = "default"
+    gyro_bias: Array = field(default_factory=lambda: np.zeros(3))
+    acc_offset: Array = field(default_factory=lambda: np.zeros(3))
+    acc_scale: Array = field(default_factory=lambda: np.ones(3))
+    acc_misalignment: Array = field(default_factory=lambda: np.eye(3))
+    mag_hard_iron: Array = field(default_factory=lambda: np.zeros(3))
+    mag_soft_iron: Array = field(default_factory=lambda: np.eye(3))
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.board_id, str) or not _BOARD_ID.fullmatch(self.board_id):
+            raise ValueError(f"board id {self.board_id!r} must be letters, digits, '.', '_' "
+                             f"or '-' (see make_board_id)")
+        for f in _array_fields():
+            value = np.array(getattr(self, f.name), dtype=np.float64)
+            shape = np.shape(f.default_factory())  # type: ignore[misc]
+            if value.shape != shape or not np.all(np.isfinite(value)):
+                raise ValueError(f"{f.name} must be {' x '.join(map(str, shape))} finite numbers")
+            object.__setattr__(self, f.name, value)
+
+    def apply_arrays(self, acc: ArrayLike, gyr: ArrayLike,
+                     mag: ArrayLike | None = None) -> Corrected:
+        """Correct readings of shape (..., 3) (one sample or many); see the class doc."""
+        a = (np.asarray(acc, dtype=np.float64) - self.acc_offset) * self.acc_scale
+        m = None if mag is None else \
+            (np.asarray(mag, dtype=np.float64) - self.mag_hard_iron) @ self.mag_soft_iron.T
+        return Corrected(a @ self.acc_misalignment.T,
+                         np.asarray(gyr, dtype=np.float64) - self.gyro_bias, m)
+
+    def apply(self, sample: RawSample) -> Corrected:
+        """Correct one raw sample (its SI readings)."""
+        return self.apply_arrays(sample.acc, sample.gyr, sample.mag)
+
+    def to_json(self) -> dict:
+        """JSON-ready fields, with the file format and version."""
+        return {"format": FORMAT, "version": VERSION, "board_id": self.board_id,
+                **{f.name: getattr(self, f.name).tolist() for f in _array_fields()}}
+
+    @classmethod
+    def from_json(cls, d: object) -> "BoardCalibration":
+        """Inverse of :meth:`to_json`; a ValueError that says what is wrong."""
+        if not isinstance(d, dict) or d.get("format") != FORMAT:
+            raise ValueError("it is not an EnergyBall board calibration")
+        if d.get("version") != VERSION:
+            raise ValueError(f"it has format version {d.get('version')!r}, and this program "
+                             f"reads version {VERSION}")
+        names = ["board_id"] + [f.name for f in _array_fields()]
+        missing = [n for n in names if n not in d]
+        if missing:
+            raise ValueError(f"it lacks {', '.join(missing)}")
+        try:
+            return cls(**{n: d[n] for n in names})
+        except (TypeError, ValueError) as e:
+            raise ValueError(str(e)) from None
+
+
+def _array_fields() -> list[Field]:
+    """BoardCalibration's array fields (all but board_id); each default gives its shape."""
+    return [f for f in fields(BoardCalibration) if f.name != "board_id"]
+
+
+class CalibrationFileError(Exception):
+    """A board calibration file that cannot be read or written, worded for the user."""
+
+    def __init__(self, path: Path, problem: str) -> None:
+        super().__init__(f"board calibration {path}: {problem}")
+        self.path = path
+
+
+def make_board_id(firmware: str, user: str = "default") -> str:
+    """A board id, safe as a file name, from the hello's firmware string and a user name."""
+    safe = re.sub(r"[^A-Za-z0-9._-]+", "-", f"{firmware}_{user}").strip("._-")[:80]
+    return safe or "default"
+
+
+def boards_dir() -> Path:
+    """The per-user folder of board files: $XDG_CONFIG_HOME/energyball/boards (~/.config/...)."""
+    base = os.environ.get("XDG_CONFIG_HOME") or Path.home() / ".config"
+    return Path(base) / "energyball" / "boards"
+
+
+def calibration_path(board_id: str, directory: str | os.PathLike | None = None) -> Path:
+    """Where a board's calibration lives: ``<directory or boards_dir()>/<board_id>.json``."""
+    if not _BOARD_ID.fullmatch(board_id):
+        raise ValueError(f"board id {board_id!r} must be letters, digits, '.', '_' or '-'")
+    return Path(directory if directory is not None else boards_dir()) / f"{board_id}.json"
+
+
+def save(cal: BoardCalibration, directory: str | os.PathLike | None = None) -> Path:
+    """Write a board's calibration atomically (tracker.atomic); the path written."""
+    path = calibration_path(cal.board_id, directory)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write(path, json.dumps(cal.to_json(), indent=2) + "\n")
+    except OSError as e:
+        raise CalibrationFileError(path, f"cannot write it: {e.strerror or e}") from None
+    return path
+
+
+def _read_json(path: Path) -> object:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise CalibrationFileError(path, "no calibration saved for this board yet") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise CalibrationFileError(path, f"cannot read it: {getattr(e, 'strerror', None) or e}") \
+            from None
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as e:
+        raise CalibrationFileError(path, f"it is damaged (not valid JSON: {e.msg} at line "
+                                         f"{e.lineno}); delete it or calibrate again") from None
+
+
+def load(board_id: str, directory: str | os.PathLike | None = None) -> BoardCalibration:
+    """Read a board's calibration; :class:`CalibrationFileError` says what is wrong."""
+    path = calibration_path(board_id, directory)
+    try:
+        cal = BoardCalibration.from_json(_read_json(path))
+    except ValueError as e:
+        raise CalibrationFileError(path, f"{e}; delete it or calibrate again") from None
+    if cal.board_id != board_id:
+        raise CalibrationFileError(path, f"it holds board {cal.board_id!r}, not {board_id!r}")
+    return cal
+
+
+def load_or_default(board_id: str, directory: str | os.PathLike | None = None
+                    ) -> tuple[BoardCalibration, str]:
+    """A board's calibration and a notice for the user; the defaults when it cannot be loaded."""
+    try:
+        cal = load(board_id, directory)
+    except CalibrationFileError as e:
+        return BoardCalibration(board_id), f"{e}; using the default calibration"
+    return cal, f"board calibration loaded from {calibration_path(board_id, directory)}"

@@ -1,0 +1,140 @@
+"""The interface every fusion filter shares.
+
+A filter turns gyroscope, accelerometer and (optionally) magnetometer samples
+into ``q_WS``, the sensor's orientation in the world frame (z up; East-North-Up
+when a magnetometer fixes heading, arbitrary heading without one).
+
+Each filter keeps three things apart (after the structure of dlaidig/vqf):
+``params`` (a dataclass of documented settings, fixed after construction),
+``state`` (a dataclass the filter owns: read it with :meth:`Filter.get_state`,
+restore it with :meth:`Filter.set_state`, start over with :meth:`Filter.reset`)
+and read-only ``flags`` about the last update (after x-io Fusion's flags).
+
+Bad input never breaks a filter: :meth:`Filter.update` checks each sample
+first. A non-finite gyroscope sample is skipped; a non-finite accelerometer or
+magnetometer sample is left out of the correction; a sample at the sensor's
+full scale is flagged as saturated. The state stays finite either way.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import ClassVar, Generic, Sequence, TypeVar
+
+import numpy as np
+
+from .qmath import Quat, Vec
+
+GYR_SATURATION = math.radians(2000) * 0.999  # MPU-9250 at its widest full scale
+ACC_SATURATION = 16 * 9.80665 * 0.999
+
+
+@dataclass
+class Flags:
+    """What happened in the last update (read-only for callers)."""
+
+    skipped: bool = False  # the sample was unusable (non-finite gyroscope or dt)
+    acc_ignored: bool = False  # accelerometer unusable (non-finite or zero)
+    mag_ignored: bool = False  # magnetometer absent or unusable
+    saturated: bool = False  # a reading at the sensor's full scale
+    rest: bool = False  # the filter believes the sensor is at rest (where it detects rest)
+    acc_rejected: bool = False  # accelerometer judged disturbed and not used (where supported)
+    mag_rejected: bool = False  # magnetometer judged disturbed and not used (where supported)
+
+
+P = TypeVar("P")
+S = TypeVar("S")
+
+
+class Filter(ABC, Generic[P, S]):
+    """A streaming orientation filter; subclasses implement :meth:`_step`."""
+
+    name: ClassVar[str]
+    Params: ClassVar[type]
+    State: ClassVar[type]
+
+    def __init__(self, params: P | None = None, **overrides: object) -> None:
+        base = params if params is not None else self.Params()
+        for key in overrides:
+            if not hasattr(base, key):
+                raise ValueError(f"filter {self.name!r} has no parameter {key!r}")
+        self.params: P = type(base)(**{**vars(base), **overrides})
+        self.flags = Flags()
+        self._state: S = self._initial_state()
+
+    # ------------------------------------------------------------ state
+
+    @abstractmethod
+    def _initial_state(self) -> S:
+        """The state before the first sample."""
+
+    def reset(self) -> None:
+        """Forget everything learned; the next sample starts afresh."""
+        self._state = self._initial_state()
+        self.flags = Flags()
+
+    def get_state(self) -> S:
+        """A copy of the state (changing it does not change the filter)."""
+        return copy.deepcopy(self._state)
+
+    def set_state(self, state: S) -> None:
+        """Restore a state from :meth:`get_state`."""
+        self._state = copy.deepcopy(state)
+
+    @property
+    def quat(self) -> Quat:
+        """The current estimate of q_WS."""
+        return self._state.q
+
+    # ------------------------------------------------------------ updating
+
+    def update(self, gyr: Sequence[float], acc: Sequence[float] | None,
+               mag: Sequence[float] | None = None, dt: float = 0.005) -> Quat:
+        """Take one sample (rad/s, m/s^2, uT, seconds) and return the new q_WS."""
+        flags = Flags()
+        self.flags = flags
+        g = _finite3(gyr)
+        if g is None or not (0.0 < dt < 1.0):
+            flags.skipped = True
+            return self._state.q
+        a = _finite3(acc)
+        if a is None or a == (0.0, 0.0, 0.0):
+            flags.acc_ignored, a = True, None
+        m = _finite3(mag)
+        if m is None or m == (0.0, 0.0, 0.0):
+            flags.mag_ignored, m = True, None
+        flags.saturated = (max(abs(g[0]), abs(g[1]), abs(g[2])) >= GYR_SATURATION
+                           or (a is not None and max(abs(a[0]), abs(a[1]), abs(a[2])) >= ACC_SATURATION))
+        return self._step(g, a, m, dt)
+
+    @abstractmethod
+    def _step(self, gyr: Vec, acc: Vec | None, mag: Vec | None, dt: float) -> Quat:
+        """One update with checked input; sets ``self._state.q`` and returns it."""
+
+    def run(self, gyr: np.ndarray, acc: np.ndarray, mag: np.ndarray | None, rate: float) -> np.ndarray:
+        """Offline: reset, then update on every row; returns (N, 4) q_WS, scalar first."""
+        self.reset()
+        dt = 1.0 / rate
+        n = len(gyr)
+        out = np.empty((n, 4))
+        g, a = np.asarray(gyr, float).tolist(), np.asarray(acc, float).tolist()
+        m = np.asarray(mag, float).tolist() if mag is not None else [None] * n
+        update = self.update
+        for i in range(n):
+            out[i] = update(g[i], a[i], m[i], dt)
+        return out
+
+
+def _finite3(v: Sequence[float] | None) -> Vec | None:
+    """``v`` as a 3-tuple of floats, or None if absent or not all finite."""
+    if v is None:
+        return None
+    x, y, z = float(v[0]), float(v[1]), float(v[2])
+    if x - x != 0.0 or y - y != 0.0 or z - z != 0.0:  # NaN or inf, fast
+        return None
+    return (x, y, z)
+
+

@@ -1,0 +1,91 @@
+"""The quaternion complementary filter of seed 000 (Zhu & Shi), sec. 3, steps 1-5.
+
+Each sample, the gyroscope rotation ``q_delta`` is integrated (the body rate
+post-multiplies), and the estimate is tilted by a fraction ``1 - alpha`` of the
+angle ``phi`` between the accelerometer's direction, seen in the world frame,
+and "up". No magnetometer, by the paper's design: the heading is whatever the
+gyroscope integrates to (it drifts; sec. 6 lists this weakness).
+
+Conventions, converted at the boundary:
+
+- The paper's ``q^(t)`` maps sensor to inertial, ``q_a^(inertial) = q q_a^(sensor) q^-1``
+  (step 1), with the Hamilton product: that is our ``q_WS`` unchanged.
+- The paper's inertial "up" is ``v_up = (-1, 0, 0)`` (the arm hangs down along the
+  sensor x axis at ``q^(0) = 1``); ours is ``+z``. So steps 3-4 use ``UP = (0, 0, 1)``
+  and the paper's ``phi = arccos(-q_a1 / |q_a|)`` becomes ``arccos(v . UP)``.
+  Like the paper's, the estimate starts at the identity.
+- ``alpha`` weights the gyroscope per sample, so the tilt correction's time
+  constant is about ``dt / (1 - alpha)``: 0.35 s at 200 Hz, 0.25 s at 286 Hz
+  for the default.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from . import qmath as qm
+from .base import Filter
+from .qmath import Quat, Vec
+
+UP: Vec = (0.0, 0.0, 1.0)  # world up; the paper's v_up = (-1, 0, 0), see the module docstring
+_HALF_TURN_AXIS: Vec = (1.0, 0.0, 0.0)  # a horizontal axis for the undefined step-4 axis at phi = pi
+_TINY = 1e-12
+
+
+@dataclass
+class ComplementaryParams:
+    """Settings of the seed 000 complementary filter."""
+
+    # Weight of the gyroscope per sample (seed 000, sec. 3, step 5): each update
+    # removes (1 - alpha) of the tilt error. 0.986 was best for inclination on the
+    # BROAD undisturbed trials at 286 Hz (tuned over 0.95..0.999).
+    alpha: float = 0.986
+
+
+@dataclass
+class ComplementaryState:
+    q: Quat = qm.IDENTITY  # q_WS; the paper's q^(0) = (1, 0, 0, 0)
+
+
+class ComplementaryFilter(Filter[ComplementaryParams, ComplementaryState]):
+    """Seed 000, sec. 3: gyroscope integration with a partial tilt correction."""
+
+    name = "complementary"
+    Params = ComplementaryParams
+    State = ComplementaryState
+
+    def _initial_state(self) -> ComplementaryState:
+        return ComplementaryState()
+
+    def _step(self, gyr: Vec, acc: Vec | None, mag: Vec | None, dt: float) -> Quat:
+        s = self._state
+        q_delta = qm.from_rotvec(gyr[0] * dt, gyr[1] * dt, gyr[2] * dt)  # the paper's q_delta
+        q = qm.mul(s.q, q_delta)
+        if acc is not None:
+            q = qm.mul(tilt_correction(s.q, acc, 1.0 - self.params.alpha), q)
+        s.q = qm.normalize(q)  # step 5: q(t+dt) = q((1 - alpha) phi, v_tilt) q(t) q_delta
+        return s.q
+
+
+def tilt_correction(q: Quat, acc: Vec, fraction: float) -> Quat:
+    """``q(fraction * phi, v_tilt)`` of seed 000, sec. 3, steps 1-5.
+
+    Step 1: the accelerometer in the world frame, ``q acc q^-1``; step 2: its
+    direction ``v``; step 3: ``phi = arccos(v . UP)``, computed as
+    ``atan2(|v x UP|, v . UP)`` (the same angle, accurate near 0); step 4: the axis
+    ``v_tilt = v x UP`` (normalised; any horizontal axis at ``phi = pi``).
+    """
+    v = qm.rotate(q, acc)  # step 1 (step 2's normalisation cancels in atan2 and the axis)
+    axis = qm.cross(v, UP)  # step 4
+    s = qm.norm3(axis)
+    phi = math.atan2(s, qm.dot(v, UP))  # step 3
+    if s < _TINY * qm.norm3(v):
+        if phi < 0.5 * math.pi:
+            return qm.IDENTITY
+        axis, s = _HALF_TURN_AXIS, 1.0
+    k = fraction * phi / s
+    return qm.from_rotvec(axis[0] * k, axis[1] * k, axis[2] * k)
+
+
+FILTER_CLASS = ComplementaryFilter

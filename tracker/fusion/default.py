@@ -1,0 +1,260 @@
+"""``default``: EnergyBall's own filter, the one the game uses.
+
+Its structure follows the published VQF method (D. Laidig and T. Seel, "VQF:
+Highly accurate IMU orientation estimation with bias estimation and magnetic
+disturbance rejection", Information Fusion 91, 2023; cited below as VQF),
+written afresh from the paper's description, with a bias estimator in motion
+after Mahony's integral term (R. Mahony, T. Hamel, J.-M. Pflimlin, "Nonlinear
+complementary filters on the special orthogonal group", IEEE TAC 53(5), 2008;
+cited as Mahony). Each step of :meth:`DefaultFilter._step` says which.
+
+The orientation is kept as three factors (VQF sec. 3)::
+
+    q_WS = q_heading (about world z)  *  q_inc (I -> E, no heading)  *  q_gyr (S -> I)
+
+``q_gyr`` is pure strapdown integration of the bias-corrected gyroscope into
+an almost-inertial frame I. The accelerometer, rotated into I, is low-pass
+filtered there: in I the gravity direction moves only as slowly as q_gyr
+drifts, while linear accelerations of real motion average out. ``q_inc`` is
+the rotation that makes this filtered direction vertical. ``q_heading`` turns
+the horizontal part of the magnetic field, seen in the 6D frame, to north.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from .base import Filter
+from .qmath import IDENTITY, Quat, Vec, from_rotvec, mul, normalize, rotate, rotate_inverse
+
+GRAVITY = 9.81
+
+
+@dataclass(frozen=True)
+class DefaultParams:
+    """Settings of the default filter (times in seconds, thresholds in SI units)."""
+
+    tau_acc: float = 3.0  # low-pass time constant of the accelerometer in frame I (VQF sec. 3.2)
+    tau_mag: float = 20.0  # time constant of the heading correction (VQF sec. 3.4 uses 9 s)
+    rest_gyr_th: float = math.radians(2.0)  # rest: gyro deviation below this (rad/s) (VQF sec. 3.3)
+    rest_acc_th: float = 0.5  # rest: accelerometer deviation below this (m/s^2)
+    rest_min_t: float = 1.5  # rest: held this long
+    rest_tau: float = 0.5  # low-pass time constant of the rest detector's signals
+    bias_tau_rest: float = 1.0  # at rest the bias follows the low-passed gyro with this time constant
+    bias_ki: float = 0.01  # integral gain of the bias estimate in motion (Mahony eq. 32), 1/s
+    bias_max: float = math.radians(5.0)  # |bias| limit: the MPU-9250's zero-rate offset bound
+    mag_norm_th: float = 0.1  # field norm deviating by more than this fraction: disturbed
+    mag_dip_th: float = math.radians(10.0)  # dip angle deviating by more than this: disturbed
+    mag_ref_tau: float = 20.0  # how fast the undisturbed field reference (norm, dip) adapts
+    mag_gate: float = math.radians(3.0)  # heading innovations beyond this are left out ...
+    heading_drift: float = math.radians(0.1)  # ... the gate widening by this per second without one
+    startup_t: float = 1.0  # during the first second corrections use plain averaging (fast start)
+
+
+@dataclass
+class _LowPass2:
+    """A second-order Butterworth low-pass on a 3-vector (bilinear transform).
+
+    Coefficients from the analogue prototype H(s) = 1 / (s^2 + sqrt(2) s + 1)
+    with the cut-off prewarped, K = tan(pi fc Ts), as VQF sec. 3.2 uses with
+    fc = sqrt(2) / (2 pi tau). Direct form II transposed per axis.
+    """
+
+    b0: float
+    b1: float
+    b2: float
+    a1: float
+    a2: float
+    s1: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    s2: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    primed: bool = False
+
+    @classmethod
+    def design(cls, tau: float, dt: float) -> "_LowPass2":
+        fc = math.sqrt(2.0) / (2.0 * math.pi * tau)
+        k = math.tan(math.pi * min(fc * dt, 0.49))
+        norm = 1.0 + math.sqrt(2.0) * k + k * k
+        b0 = k * k / norm
+        return cls(b0, 2 * b0, b0, 2.0 * (k * k - 1.0) / norm, (1.0 - math.sqrt(2.0) * k + k * k) / norm)
+
+    def __call__(self, x: Vec) -> Vec:
+        if not self.primed:  # start in steady state at the first input (fast start-up)
+            self.primed = True
+            for i in range(3):
+                self.s1[i] = x[i] * (1.0 - self.b0)
+                self.s2[i] = x[i] * (self.b2 - self.a2)
+            return x
+        out = []
+        b0, b1, b2, a1, a2, s1, s2 = self.b0, self.b1, self.b2, self.a1, self.a2, self.s1, self.s2
+        for i in range(3):
+            y = b0 * x[i] + s1[i]
+            s1[i] = b1 * x[i] - a1 * y + s2[i]
+            s2[i] = b2 * x[i] - a2 * y
+            out.append(y)
+        return (out[0], out[1], out[2])
+
+
+@dataclass
+class DefaultState:
+    """Everything the default filter has learned (read with get_state, restore with set_state)."""
+
+    q: Quat = IDENTITY  # the output, q_WS
+    q_gyr: Quat = IDENTITY  # strapdown S -> I
+    q_inc: Quat = IDENTITY  # inclination correction I -> E
+    heading: float = 0.0  # rotation about world z, radians
+    bias: Vec = (0.0, 0.0, 0.0)  # gyroscope bias, rad/s, sensor frame
+    t: float = 0.0  # time since start
+    rest_t: float = 0.0  # how long the rest conditions have held
+    mag_norm: float = 0.0  # reference field norm (uT), 0 until known
+    mag_dip: float = 0.0  # reference dip angle (rad)
+    mag_samples: int = 0  # undisturbed magnetometer samples used so far
+    mag_reject_t: float = 0.0  # time since the last heading correction
+    dt: float = 0.0  # the sample period the low-passes were designed for
+    acc_lp: _LowPass2 | None = None
+    rest_gyr_lp: _LowPass2 | None = None
+    rest_acc_lp: _LowPass2 | None = None
+
+
+class DefaultFilter(Filter[DefaultParams, DefaultState]):
+    """EnergyBall's default filter: VQF-style inclination and heading, bias at rest and in motion."""
+
+    name = "default"
+    Params = DefaultParams
+    State = DefaultState
+
+    def _initial_state(self) -> DefaultState:
+        return DefaultState()
+
+    def _design(self, dt: float) -> None:
+        s, p = self._state, self.params
+        s.dt = dt
+        s.acc_lp = _LowPass2.design(p.tau_acc, dt)
+        s.rest_gyr_lp = _LowPass2.design(p.rest_tau, dt)
+        s.rest_acc_lp = _LowPass2.design(p.rest_tau, dt)
+
+    def _step(self, gyr: Vec, acc: Vec | None, mag: Vec | None, dt: float) -> Quat:
+        s, p = self._state, self.params
+        if s.acc_lp is None or abs(dt - s.dt) > 1e-3 * s.dt:
+            self._design(dt)
+        s.t += dt
+        if acc is not None:
+            self._detect_rest(gyr, acc, dt)
+        # 1. Strapdown integration of the bias-corrected rate (VQF sec. 3.1).
+        b = s.bias
+        s.q_gyr = normalize(mul(s.q_gyr, from_rotvec((gyr[0] - b[0]) * dt, (gyr[1] - b[1]) * dt,
+                                                     (gyr[2] - b[2]) * dt)))
+        # 2. Inclination from the accelerometer low-passed in frame I (VQF sec. 3.2).
+        if acc is not None:
+            self._correct_inclination(acc, dt)
+        q6 = mul(s.q_inc, s.q_gyr)
+        # 3. Heading from the magnetometer, with disturbance rejection (VQF sec. 3.4).
+        if mag is not None:
+            self._correct_heading(q6, mag, dt)
+        half = 0.5 * s.heading
+        s.q = normalize(mul((math.cos(half), 0.0, 0.0, math.sin(half)), q6))
+        return s.q
+
+    # ------------------------------------------------------------ rest and bias
+
+    def _detect_rest(self, gyr: Vec, acc: Vec, dt: float) -> None:
+        """Rest when gyro and accelerometer stay near their low-passed values (VQF sec. 3.3)."""
+        s, p = self._state, self.params
+        g_lp = s.rest_gyr_lp(gyr)
+        a_lp = s.rest_acc_lp(acc)
+        dg = (gyr[0] - g_lp[0]) ** 2 + (gyr[1] - g_lp[1]) ** 2 + (gyr[2] - g_lp[2]) ** 2
+        da = (acc[0] - a_lp[0]) ** 2 + (acc[1] - a_lp[1]) ** 2 + (acc[2] - a_lp[2]) ** 2
+        still = dg < p.rest_gyr_th ** 2 and da < p.rest_acc_th ** 2 \
+            and abs(g_lp[0]) < p.bias_max * 2 and abs(g_lp[1]) < p.bias_max * 2 and abs(g_lp[2]) < p.bias_max * 2
+        s.rest_t = s.rest_t + dt if still else 0.0
+        rest = s.rest_t >= p.rest_min_t
+        self.flags.rest = rest
+        if rest:
+            # At rest the low-passed gyro is the bias (VQF sec. 3.3): follow it quickly.
+            k = min(1.0, dt / p.bias_tau_rest)
+            s.bias = self._clamp(tuple(bi + k * (gi - bi) for bi, gi in zip(s.bias, g_lp)))
+
+    def _clamp(self, b: tuple[float, ...]) -> Vec:
+        m = self.params.bias_max
+        return (max(-m, min(m, b[0])), max(-m, min(m, b[1])), max(-m, min(m, b[2])))
+
+    # ------------------------------------------------------------ inclination
+
+    def _correct_inclination(self, acc: Vec, dt: float) -> None:
+        s, p = self._state, self.params
+        a_i = s.acc_lp(rotate(s.q_gyr, acc))
+        ax, ay, az = rotate(s.q_inc, a_i)
+        n = math.sqrt(ax * ax + ay * ay + az * az)
+        if n < 1e-6:
+            return
+        ax, ay, az = ax / n, ay / n, az / n
+        # The rotation taking the filtered direction to vertical: about (ay, -ax, 0) by acos(az).
+        angle = math.acos(max(-1.0, min(1.0, az)))
+        h = math.sqrt(ax * ax + ay * ay)
+        if h < 1e-12:
+            return
+        rx, ry = ay / h * angle, -ax / h * angle
+        s.q_inc = normalize(mul(from_rotvec(rx, ry, 0.0), s.q_inc))
+        if not self.flags.rest and s.t > p.startup_t:
+            self._learn_bias_in_motion(rx / dt, ry / dt, dt)
+
+    def _learn_bias_in_motion(self, cx: float, cy: float, dt: float) -> None:
+        """Integral action on the inclination correction rate (Mahony eq. 32).
+
+        A constant bias b makes the strapdown frame turn by -R b per second; the
+        correction then turns it back at (cx, cy) ~ (R b) horizontally. Only the
+        horizontal part is observable from gravity.
+        """
+        s, p = self._state, self.params
+        q6 = mul(s.q_inc, s.q_gyr)
+        bx, by, bz = rotate_inverse(q6, (cx, cy, 0.0))
+        k = p.bias_ki * dt
+        s.bias = self._clamp((s.bias[0] - k * bx, s.bias[1] - k * by, s.bias[2] - k * bz))
+
+    # ------------------------------------------------------------ heading
+
+    def _correct_heading(self, q6: Quat, mag: Vec, dt: float) -> None:
+        s, p = self._state, self.params
+        mx, my, mz = rotate(q6, mag)
+        norm = math.sqrt(mx * mx + my * my + mz * mz)
+        if norm < 1e-6:
+            return
+        dip = math.asin(max(-1.0, min(1.0, mz / norm)))
+        if not self._field_undisturbed(norm, dip, dt):
+            self.flags.mag_rejected = True
+            return
+        # Heading of the horizontal field measured from north (+y) toward east; the
+        # correction turns it back to north: heading = -atan2(mx, my) in the 6D frame.
+        target = -math.atan2(mx, my)
+        err = (target - s.heading + math.pi) % (2 * math.pi) - math.pi
+        k = dt / p.tau_mag
+        if s.t <= p.startup_t:
+            k = max(k, 1.0 / s.mag_samples)  # fast start: plain average of the first second
+        elif abs(err) > p.mag_gate + p.heading_drift * s.mag_reject_t:
+            # Innovation gating: the heading can only have drifted so far since the last
+            # correction; a field pointing further away is disturbed and left out.
+            s.mag_reject_t += dt
+            self.flags.mag_rejected = True
+            return
+        s.mag_reject_t = 0.0
+        s.heading = (s.heading + k * err + math.pi) % (2 * math.pi) - math.pi
+
+
+    def _field_undisturbed(self, norm: float, dip: float, dt: float) -> bool:
+        """Magnetic disturbance test on the field's norm and dip angle (VQF sec. 3.4)."""
+        s, p = self._state, self.params
+        s.mag_samples += 1
+        if s.mag_norm == 0.0 or s.t <= p.startup_t:
+            n = s.mag_samples
+            s.mag_norm += (norm - s.mag_norm) / n
+            s.mag_dip += (dip - s.mag_dip) / n
+            return True
+        ok = abs(norm - s.mag_norm) < p.mag_norm_th * s.mag_norm and abs(dip - s.mag_dip) < p.mag_dip_th
+        if ok:
+            k = dt / p.mag_ref_tau
+            s.mag_norm += k * (norm - s.mag_norm)
+            s.mag_dip += k * (dip - s.mag_dip)
+        return ok
+
+
+FILTER_CLASS = DefaultFilter

@@ -1,0 +1,193 @@
+"""Gravity and magnetic-north correction with SLERP by stillness, after seed 002, sec. 2.2.
+
+Per sample: the gyroscope bias is re-estimated at rest (eq. 2), the unbiased rate
+is integrated (eqs. 3-4) into ``q_G``, ``q_G`` is corrected once toward the
+accelerometer's gravity (eqs. 5-9, giving ``q_GA``) and once toward the
+magnetometer's field (eqs. 10-14, ``q_GM``), and the output is the SLERP between
+the two weighted by the "stillness" ``alpha`` (eqs. 15-16).
+
+Conventions, checked against first principles:
+
+- Seed 002 writes ``q* (x) A (x) q`` for a world vector seen in the sensor frame
+  (eqs. 5, 10) and ``q_dot = 1/2 q (x) omega`` (eq. 3): its ``q`` maps sensor to
+  world, with the Hamilton product, i.e. our ``q_WS`` as it stands. Then
+  ``Delta q = H(a0 x a(q_G), |a0||a(q_G)| + a0 . a(q_G))`` (eqs. 6-8) is the
+  shortest rotation taking the measured vector onto the predicted one, and
+  ``q_G (x) Delta q`` (eq. 9) maps the measurement exactly onto the reference.
+- Gravity reference ``A_int`` = ``UP`` = (0, 0, 1): the accelerometer's specific
+  force at rest points up (only the direction matters in eqs. 6-8).
+- Magnetic reference ``M_int`` = (0, horizontal, vertical) field in the world
+  frame, measured once, at the first magnetometer sample, with the heading set
+  so that the field's horizontal part points along +y: the world frame is
+  East-North-Up with north = magnetic north. Without a magnetometer the heading
+  is arbitrary (whatever the gyroscope integrates to).
+
+Where the paper is silent, our choices (each a parameter):
+
+- The corrections are applied in part: ``q_G (x) Delta q^k`` with
+  ``k = 1 - exp(-dt / tau)``; ``tau = 0`` is the paper's full correction (eqs. 9, 14).
+- Stillness ``alpha = exp(-(|omega_B| / still_gyr)^2 - ((|a0| - g) / still_acc)^2)``:
+  1 at rest, toward 0 while rotating or accelerating.
+- A missing vector corrects nothing (``Delta q = 1``): without a magnetometer
+  ``q_GM = q_G``, so eq. 15 weights the gravity correction by stillness alone.
+- The estimate starts levelled by the first accelerometer sample (eq. 9 with k = 1).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from . import qmath as qm
+from .base import Filter
+from .qmath import Quat, Vec
+
+UP: Vec = (0.0, 0.0, 1.0)  # A_int of eq. 5: the specific force at rest, world frame
+_ZERO: Vec = (0.0, 0.0, 0.0)
+_TINY = 1e-12
+
+
+@dataclass
+class GravMagParams:
+    """Settings of the seed 002 filter (tuned on the BROAD undisturbed trials, 286 Hz)."""
+
+    rest_threshold: float = math.radians(1.5)  # rad/s: |omega_0| below this is "at rest" (eq. 2)
+    rest_time: float = 0.25  # s at rest whose mean gyroscope is the bias (eq. 2: 5 samples = 250 ms)
+    tau_acc: float = 1.0  # s, time constant of the gravity correction (0 = the paper's full one)
+    tau_mag: float = 2.0  # s, time constant of the north correction (0 = the paper's full one)
+    still_gyr: float = math.radians(30.0)  # rad/s, rotation rate scale of the stillness alpha
+    still_acc: float = 1.0  # m/s^2, |acc| - g scale of the stillness alpha
+    gravity: float = 9.81  # m/s^2, the accelerometer's norm at rest
+
+
+@dataclass
+class GravMagState:
+    q: Quat = qm.IDENTITY  # q_WS
+    bias: Vec = _ZERO  # b-hat of eq. 2, rad/s
+    rest_sum: Vec = _ZERO  # sum of the raw gyroscope samples in the current rest block, rad/s
+    rest_count: int = 0  # samples in that block
+    rest_for: float = 0.0  # s, duration of that block
+    resting: bool = False  # a full block has passed since the rate last exceeded the threshold
+    field: Vec | None = None  # M_int of eq. 10 in uT, (0, horizontal, vertical); None before any mag sample
+    levelled: bool = False  # whether an accelerometer sample has levelled the estimate yet
+
+
+class GravMagFilter(Filter[GravMagParams, GravMagState]):
+    """Seed 002: bias at rest, gyroscope integration, gravity and north corrections, SLERP."""
+
+    name = "gravmag"
+    Params = GravMagParams
+    State = GravMagState
+
+    def _initial_state(self) -> GravMagState:
+        return GravMagState()
+
+    def _step(self, gyr: Vec, acc: Vec | None, mag: Vec | None, dt: float) -> Quat:
+        s, p = self._state, self.params
+        omega = self._unbiased(gyr, dt)
+        q_g = qm.mul(s.q, qm.from_rotvec(omega[0] * dt, omega[1] * dt, omega[2] * dt))  # eqs. 3-4
+        if acc is not None and not s.levelled:
+            q_g, s.levelled = corrected(q_g, acc, UP, 1.0), True
+        if mag is not None and s.levelled and s.field is None:
+            q_g, s.field = facing_north(q_g, mag)
+        q_ga = corrected(q_g, acc, UP, _gain(dt, p.tau_acc)) if acc is not None else q_g  # eqs. 5-9
+        q_gm = q_g  # eqs. 10-14 below
+        if mag is not None and s.field is not None:
+            q_gm = corrected(q_g, mag, s.field, _gain(dt, p.tau_mag))
+        s.q = qm.normalize(slerp(q_gm, q_ga, self._stillness(omega, acc)))  # eq. 15
+        return s.q
+
+    def _unbiased(self, gyr: Vec, dt: float) -> Vec:
+        """``omega_B = omega_0 - b`` (seed 002, eq. 2); sets ``flags.rest``.
+
+        Each block of ``rest_time`` seconds with ``|omega_0| < rest_threshold``
+        throughout makes the bias ``b`` the block's mean raw rate. The paper's block
+        is 5 samples at its 20 Hz, 250 ms: kept in seconds here, since 5 samples at
+        200-300 Hz (under 25 ms) are often quiet mid-movement and spoil the bias.
+        """
+        s = self._state
+        if qm.norm3(gyr) < self.params.rest_threshold:
+            t = s.rest_sum
+            s.rest_sum = (t[0] + gyr[0], t[1] + gyr[1], t[2] + gyr[2])
+            s.rest_count += 1
+            s.rest_for += dt
+            if s.rest_for >= self.params.rest_time:
+                n = float(s.rest_count)
+                s.bias = (s.rest_sum[0] / n, s.rest_sum[1] / n, s.rest_sum[2] / n)
+                s.rest_sum, s.rest_count, s.rest_for, s.resting = _ZERO, 0, 0.0, True
+        else:
+            s.rest_sum, s.rest_count, s.rest_for, s.resting = _ZERO, 0, 0.0, False
+        self.flags.rest = s.resting
+        b = s.bias
+        return (gyr[0] - b[0], gyr[1] - b[1], gyr[2] - b[2])
+
+    def _stillness(self, omega: Vec, acc: Vec | None) -> float:
+        """The stillness ``alpha`` of eq. 15: 1 = no movement (the formula is ours, see above)."""
+        p = self.params
+        x = (qm.norm3(omega) / p.still_gyr) ** 2
+        if acc is not None:
+            x += ((qm.norm3(acc) - p.gravity) / p.still_acc) ** 2
+        return math.exp(-x)
+
+
+def corrected(q_g: Quat, measured: Vec, reference: Vec, gain: float) -> Quat:
+    """``q_G (x) Delta q^gain`` (seed 002, eqs. 5-9 for gravity, 10-14 for north).
+
+    The reference (``A_int`` or ``M_int``, world frame) seen from ``q_G`` is
+    ``q_G* (x) ref (x) q_G`` (eqs. 5, 10); ``Delta q`` rotates the measurement
+    onto it (eqs. 6-8, 11-13); post-multiplying it corrects ``q_G`` (eqs. 9, 14).
+    """
+    predicted = qm.rotate_inverse(q_g, reference)  # eq. 5 / 10
+    return qm.mul(q_g, _power(between(measured, predicted), gain))  # eq. 9 / 14
+
+
+def between(u: Vec, v: Vec) -> Quat:
+    """``H(u x v, |u||v| + u . v)`` normalised: the shortest rotation taking u onto v
+    (seed 002, eqs. 6-8 / 11-13); a half-turn about an axis perpendicular to u
+    where they are opposite (the paper's formula is 0/0 there)."""
+    c = qm.cross(u, v)
+    w = qm.norm3(u) * qm.norm3(v) + qm.dot(u, v)
+    if w <= _TINY * (1.0 + qm.norm3(u) * qm.norm3(v)):
+        c = qm.cross(u, (1.0, 0.0, 0.0) if abs(u[0]) < 0.6 * qm.norm3(u) else (0.0, 1.0, 0.0))
+        w = 0.0
+    return qm.normalize((w, c[0], c[1], c[2]))
+
+
+def facing_north(q: Quat, mag: Vec) -> tuple[Quat, Vec]:
+    """``q`` turned about world z so the field's horizontal part points along +y (north),
+    and ``M_int`` = the field in that world frame, (0, horizontal, vertical)."""
+    m = qm.rotate(q, mag)
+    yaw = math.atan2(m[0], m[1])  # rotating by yaw about z takes (m_x, m_y) onto (0, |m_xy|)
+    return qm.mul(qm.from_rotvec(0.0, 0.0, yaw), q), (0.0, math.hypot(m[0], m[1]), m[2])
+
+
+def slerp(q_gm: Quat, q_ga: Quat, alpha: float) -> Quat:
+    """Eqs. 15-16 of seed 002: ``(q_GM sin((1 - alpha) W) + q_GA sin(alpha W)) / sin(W)``,
+    ``cos(W) = q_GM . q_GA``; along the shorter arc, and linear where W is tiny."""
+    cos_w = sum(a * b for a, b in zip(q_gm, q_ga))  # eq. 16
+    sign = 1.0 if cos_w >= 0.0 else -1.0  # q and -q are one rotation: take the shorter arc
+    omega = math.acos(min(1.0, sign * cos_w))
+    if omega < 1e-6:
+        a, b = 1.0 - alpha, alpha
+    else:
+        a, b = math.sin((1.0 - alpha) * omega) / math.sin(omega), math.sin(alpha * omega) / math.sin(omega)
+    b *= sign
+    return (a * q_gm[0] + b * q_ga[0], a * q_gm[1] + b * q_ga[1],
+            a * q_gm[2] + b * q_ga[2], a * q_gm[3] + b * q_ga[3])
+
+
+def _power(dq: Quat, k: float) -> Quat:
+    """``dq^k`` for unit ``dq`` with w >= 0: the same axis, k times the angle."""
+    s = qm.norm3((dq[1], dq[2], dq[3]))
+    if k == 1.0 or s < _TINY:
+        return dq
+    scale = 2.0 * k * math.atan2(s, dq[0]) / s
+    return qm.from_rotvec(dq[1] * scale, dq[2] * scale, dq[3] * scale)
+
+
+def _gain(dt: float, tau: float) -> float:
+    """The fraction of a correction applied per sample, for time constant ``tau`` (0 = all)."""
+    return 1.0 - math.exp(-dt / tau) if tau > 0.0 else 1.0
+
+
+FILTER_CLASS = GravMagFilter

@@ -1,0 +1,131 @@
+"""Slow/fast switching between gravity and gyro integration (seed 003, sec. 2.2).
+
+Seed paper 003 tracks one phalanx in its flexion plane with two estimators and
+an error-bound criterion that picks between them at every sample:
+
+- slow motion (sec. 2.2.2): the angle from the measured gravity, atan2(f3, f2);
+  its error is bounded by the non-gravitational acceleration, eq. (7):
+  ``|dtheta_g| <= |mu| / |g_yz|``, with ``|mu| <= (i_k + 1) l_max
+  sqrt(omega_dot^2 + omega^4)`` (sec. 2.2.4) for a chain of rigid links;
+- fast motion (sec. 2.2.3): integration of the gyroscope from the last
+  estimate; its error grows linearly, eq. (8): ``dtheta_w = dtheta(t_s) +
+  |domega| (t - t_s)``;
+- switching (sec. 2.2.5, steps 1-4): with ``dtheta|w = dtheta(t_{i-1}) +
+  dt |domega|``, go fast when ``dtheta|w < dtheta_g``, go slow when
+  ``dtheta_g < dtheta|w``, and carry the bound of the mode in use.
+
+Generalisation from the planar link to a 3-D segment (documented choices):
+
+- Slow estimate: gravity gives the inclination, not the heading, so the
+  slow-mode estimate is the gyro-propagated orientation turned by the smallest
+  rotation that makes the measured specific force point up
+  (:func:`.madgwick.level`); the heading comes from integration in both modes.
+  The bound tracked is the inclination error.
+- Error of the slow estimate: the whole gravity vector is observed, so the
+  planar ``|g_yz|`` becomes ``|g|`` (the planar estimator is blind to the
+  out-of-plane part; a 3-D one is not): ``dtheta_g = |mu~| / |g|``.
+- Disturbance from the measured rate, step 2's ``|mu~|(omega^)``: a sensor at
+  ``lever`` from a fixed pivot has the centripetal part
+  ``|omega x (omega x r)| <= lever |omega|^2`` of the paper's bound. The
+  tangential part needs ``omega_dot``, which one gyroscope sample does not give
+  (a difference of consecutive samples is mostly noise: about 1 rad/s^2 at rest
+  on BROAD, i.e. a 2 degree bound on a still sensor).
+- The paper subtracts the base acceleration ``a_0`` known from optical
+  tracking; here the base is not tracked, so the accelerometer supplies a
+  lower bound on the disturbance instead. With the integrated estimate
+  ``q_i`` within ``dtheta|w`` of the truth, the gravity it predicts,
+  ``g_i = q_i* (0, 0, |g|) q_i``, lies within the chord
+  ``2 |g| sin(dtheta|w / 2)`` of the true one, so
+  ``|mu| >= |acc - g_i| - 2 |g| sin(dtheta|w / 2) - acc_noise``.
+  ``|mu~|`` is the larger of the two bounds.
+- Integration: the exact rotation for a rate held over one sample,
+  ``q (x) exp(omega dt / 2)`` (the paper used Runge-Kutta, sec. 3).
+
+As in the paper, the mode is the one with the smaller bound at each sample, so
+while moving the filter integrates and takes a gravity fix whenever the
+gravity bound falls below the accumulated one (pauses, slow turns).
+
+Without a usable accelerometer the filter integrates (fast mode). The
+magnetometer is not used (``flags.mag_ignored`` is always set).
+``flags.acc_rejected`` is set while the fast mode ignores a usable
+accelerometer; ``state.fast`` is the current mode and ``state.error`` the
+current bound ``dtheta`` in radians.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from . import qmath as Q
+from .base import Filter
+from .madgwick import level
+from .qmath import Quat, Vec
+
+
+@dataclass
+class SwitchingParams:
+    """Settings of the switching filter.
+
+    lever: distance from the segment's pivot to the sensor in metres, the paper's
+    ``(i_k + 1) l_max`` for a single link; default 0.30 m, the upper arm
+    (ARCHITECTURE.md arm model).
+    gyro_error: ``|domega|``, the gyroscope's average error in rad/s after bias
+    calibration (eq. (8)); default 0.003 rad/s (0.17 deg/s). On the BROAD trials
+    (../shared/data/broad) 0.002-0.005 do best; 0.01 doubles the inclination RMSE
+    (too few gravity fixes while moving).
+    acc_noise: the accelerometer error in m/s^2 allowed before a residual counts as
+    a disturbance; default 0.5 (about 50 mg: the MPU-9250's noise plus part of its
+    zero-g offset). Below about 0.25 noise alone keeps a still sensor integrating.
+    gravity: ``|g|`` in m/s^2.
+    """
+
+    lever: float = 0.30
+    gyro_error: float = 0.003
+    acc_noise: float = 0.5
+    gravity: float = 9.81
+
+
+@dataclass
+class SwitchingState:
+    q: Quat = Q.IDENTITY
+    fast: bool = False  # True: gyro integration (fast motion); False: gravity (slow motion)
+    error: float = math.pi  # the bound dtheta in radians; pi: nothing known yet
+
+
+def gravity_error(q_int: Quat, err_int: float, gyr: Vec, acc: Vec, p: SwitchingParams) -> float:
+    """``dtheta_g = |mu~| / |g|``: seed 003 eq. (7) and sec. 2.2.5 step 2, in 3-D (module docstring)."""
+    centripetal = p.lever * (gyr[0] * gyr[0] + gyr[1] * gyr[1] + gyr[2] * gyr[2])
+    gx, gy, gz = Q.rotate_inverse(q_int, (0.0, 0.0, p.gravity))
+    residual = Q.norm3((acc[0] - gx, acc[1] - gy, acc[2] - gz))
+    chord = 2.0 * p.gravity * math.sin(0.5 * min(err_int, math.pi))
+    return max(centripetal, residual - chord - p.acc_noise) / p.gravity
+
+
+class Switching(Filter[SwitchingParams, SwitchingState]):
+    """Gravity in slow motion, gyro integration in fast motion, by the paper's error bounds."""
+
+    name = "switching"
+    Params = SwitchingParams
+    State = SwitchingState
+
+    def _initial_state(self) -> SwitchingState:
+        return SwitchingState()
+
+    def _step(self, gyr: Vec, acc: Vec | None, mag: Vec | None, dt: float) -> Quat:
+        s, p = self._state, self.params
+        self.flags.mag_ignored = True
+        q_int = Q.mul(s.q, Q.from_rotvec(gyr[0] * dt, gyr[1] * dt, gyr[2] * dt))
+        err_int = s.error + dt * p.gyro_error  # eq. (8), step 2
+        err_g = math.inf if acc is None else gravity_error(q_int, err_int, gyr, acc, p)
+        # step 3: the mode with the smaller bound; a tie keeps the current mode
+        s.fast = err_int < err_g or (err_int == err_g and s.fast)
+        if s.fast:
+            s.q, s.error = Q.normalize(q_int), err_int
+        else:
+            s.q, s.error = level(q_int, acc), err_g
+        self.flags.acc_rejected = s.fast and acc is not None
+        return s.q
+
+
+FILTER_CLASS = Switching
