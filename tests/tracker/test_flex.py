@@ -122,6 +122,7 @@ def test_a_failed_save_leaves_the_old_calibration_whole(tmp_path, monkeypatch):
     with pytest.raises(OSError):
         FlexCalibration(350.0, 30.0).save(path)
     assert FlexCalibration.load(path) == old
+    assert [p.name for p in tmp_path.iterdir()] == ["bob.flex.json"]  # the temporary is gone
 
 
 @pytest.mark.parametrize("content, message", [

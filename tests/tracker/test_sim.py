@@ -1,4 +1,4 @@
-"""The sensor simulator against motions worked by hand, scipy's rotations and seed 003's formulas."""
+"""The sensor simulator against motions worked by hand, scipy's rotations and seed 003."""
 
 import math
 
@@ -123,8 +123,8 @@ def test_the_finger_links_compose_as_seed_003_says():
     theta1 = np.cumsum(amp * freq * np.cos(np.outer(t, freq)), axis=1)
     theta2 = np.cumsum(-amp * freq**2 * np.sin(np.outer(t, freq)), axis=1)
     for i in range(3):
-        assert rot(truth.q_links[:, i + 1]).approx_equal(Rotation.from_rotvec(theta[:, i:i + 1] * [1, 0, 0]),
-                                                         atol=1e-12).all()
+        expected = Rotation.from_rotvec(theta[:, i:i + 1] * [1, 0, 0])
+        assert rot(truth.q_links[:, i + 1]).approx_equal(expected, atol=1e-12).all()
 
     def along(i):  # (0, cos theta_i, sin theta_i) and its perpendicular (0, -sin, cos)
         return np.stack([0 * t, np.cos(theta[:, i]), np.sin(theta[:, i])], -1), \
@@ -144,8 +144,8 @@ def test_the_grasp_motion_reaches_seed_003s_angles():
     truth = Simulator(finger_chain(), grasp(move, delay)).truth([0.0, delay, delay + move / 3,
                                                                  delay + move, 5.0])
     deg = np.degrees(truth.joints)
-    assert deg == pytest.approx(np.array([[0, 0, 0], [0, 0, 0], [-28, 0, 0], [90, 85, 85], [90, 85, 85]]),
-                                abs=1e-9)
+    expected = np.array([[0, 0, 0], [0, 0, 0], [-28, 0, 0], [90, 85, 85], [90, 85, 85]])
+    assert deg == pytest.approx(expected, abs=1e-9)
     assert truth.gyr[[0, 4]] == pytest.approx(np.zeros((2, 2, 3)), abs=1e-9)  # still at both ends
 
 

@@ -47,8 +47,6 @@ class DefaultParams:
     mag_norm_th: float = 0.1  # field norm deviating by more than this fraction: disturbed
     mag_dip_th: float = math.radians(10.0)  # dip angle deviating by more than this: disturbed
     mag_ref_tau: float = 20.0  # how fast the undisturbed field reference (norm, dip) adapts
-    mag_gate: float = math.radians(3.0)  # heading innovations beyond this are left out ...
-    heading_drift: float = math.radians(0.1)  # ... the gate widening by this per second without one
     startup_t: float = 1.0  # during the first second corrections use plain averaging (fast start)
 
 
@@ -109,7 +107,6 @@ class DefaultState:
     mag_norm: float = 0.0  # reference field norm (uT), 0 until known
     mag_dip: float = 0.0  # reference dip angle (rad)
     mag_samples: int = 0  # undisturbed magnetometer samples used so far
-    mag_reject_t: float = 0.0  # time since the last heading correction
     dt: float = 0.0  # the sample period the low-passes were designed for
     acc_lp: _LowPass2 | None = None
     rest_gyr_lp: _LowPass2 | None = None
@@ -223,20 +220,13 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         if not self._field_undisturbed(norm, dip, dt):
             self.flags.mag_rejected = True
             return
-        # Heading of the horizontal field measured from north (+y) toward east; the
-        # correction turns it back to north: heading = -atan2(mx, my) in the 6D frame.
-        target = -math.atan2(mx, my)
+        # The horizontal field points atan2(mx, my) east of north (+y) in the 6D frame;
+        # turning about +z by that angle brings it back to north.
+        target = math.atan2(mx, my)
         err = (target - s.heading + math.pi) % (2 * math.pi) - math.pi
         k = dt / p.tau_mag
         if s.t <= p.startup_t:
             k = max(k, 1.0 / s.mag_samples)  # fast start: plain average of the first second
-        elif abs(err) > p.mag_gate + p.heading_drift * s.mag_reject_t:
-            # Innovation gating: the heading can only have drifted so far since the last
-            # correction; a field pointing further away is disturbed and left out.
-            s.mag_reject_t += dt
-            self.flags.mag_rejected = True
-            return
-        s.mag_reject_t = 0.0
         s.heading = (s.heading + k * err + math.pi) % (2 * math.pi) - math.pi
 
 

@@ -44,6 +44,12 @@ horizontal field north (:func:`align_heading`). Without a magnetometer the headi
 starts at the shortest rotation from the sensor frame (arbitrary, as in any 6D
 filter).
 
+Timing: as published, the gradient is taken at the previous estimate against the
+current measurement, so during a turn the correction pulls towards a vector up to
+one sample's rotation ahead: with exact data the estimate leads the truth by up to
+``|omega| dt`` (plus the ``2 beta dt`` chatter of the normalised step). Taking
+the gradient after the gyro step instead scored no better on BROAD at 286 Hz.
+
 Not implemented: [M10] sec. 3.5's gyroscope bias drift compensation (the tracker
 calibrates the bias at rest upstream).
 """
@@ -113,8 +119,9 @@ def descend(q: Quat, gyr: Vec, grad: Quat, beta: float, dt: float) -> Quat:
 
 
 def unit(v: Vec) -> Vec:
-    """v / |v| (callers pass non-zero, finite vectors: base.Filter.update checks them)."""
-    n = Q.norm3(v)
+    """v / |v| for a finite, non-zero v (as base.Filter.update passes); hypot neither
+    overflows nor underflows, so 1e-200 and 1e300 scale to unit length too."""
+    n = math.hypot(v[0], v[1], v[2])
     return (v[0] / n, v[1] / n, v[2] / n)
 
 

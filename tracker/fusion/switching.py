@@ -45,7 +45,9 @@ As in the paper, the mode is the one with the smaller bound at each sample, so
 while moving the filter integrates and takes a gravity fix whenever the
 gravity bound falls below the accumulated one (pauses, slow turns).
 
-Without a usable accelerometer the filter integrates (fast mode). The
+A gyroscope sample at full scale voids the integration bound (``dtheta|w``
+becomes pi), so the next usable gravity reading is taken. Without a usable
+accelerometer the filter integrates (fast mode). The
 magnetometer is not used (``flags.mag_ignored`` is always set).
 ``flags.acc_rejected`` is set while the fast mode ignores a usable
 accelerometer; ``state.fast`` is the current mode and ``state.error`` the
@@ -58,7 +60,7 @@ import math
 from dataclasses import dataclass
 
 from . import qmath as Q
-from .base import Filter
+from .base import GYR_SATURATION, Filter
 from .madgwick import level
 from .qmath import Quat, Vec
 
@@ -117,6 +119,8 @@ class Switching(Filter[SwitchingParams, SwitchingState]):
         self.flags.mag_ignored = True
         q_int = Q.mul(s.q, Q.from_rotvec(gyr[0] * dt, gyr[1] * dt, gyr[2] * dt))
         err_int = s.error + dt * p.gyro_error  # eq. (8), step 2
+        if max(abs(gyr[0]), abs(gyr[1]), abs(gyr[2])) >= GYR_SATURATION:
+            err_int = math.pi  # the true rate is beyond full scale: the integral is unbounded
         err_g = math.inf if acc is None else gravity_error(q_int, err_int, gyr, acc, p)
         # step 3: the mode with the smaller bound; a tie keeps the current mode
         s.fast = err_int < err_g or (err_int == err_g and s.fast)
