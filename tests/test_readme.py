@@ -16,7 +16,7 @@ def quick_start_commands() -> list[str]:
 def test_quick_start_is_exactly_two_commands_install_and_play_then_install_and_test():
     play, test = quick_start_commands()
     assert "pip install" in play and play.endswith("energyball")
-    assert "'.[test]'" in test and "pytest" in test
+    assert "'.[test," in test and "pytest" in test
 
 
 def test_ci_runs_the_readme_test_command_verbatim():

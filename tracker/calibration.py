@@ -50,6 +50,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .atomic import atomic_write
+from .lowpass import LowPass2
 from .protocol import RawSample
 
 Array = NDArray[np.float64]
@@ -118,7 +119,7 @@ class RestParams:
     deviates from nothing, is not taken for rest (VQF's bias clip, 2 deg/s); feed
     bias-corrected rates, as :class:`ContinuousBias` does. ``min_duration``: seconds
     of stillness before rest is declared (VQF: 1.5 s). ``tau``: time constant of the
-    low-pass, s (VQF: 0.5 s, with a second-order Butterworth filter; first order here).
+    low-pass, s (VQF: 0.5 s, second-order Butterworth as here).
     """
 
     gyr_threshold: float = 2.0 * DEG
@@ -132,26 +133,22 @@ class RestParams:
 class RestState:
     """What a :class:`RestDetector` remembers between samples."""
 
-    gyr_lp: Array | None = None  # low-passed gyroscope, rad/s (None before the first sample)
-    acc_lp: Array | None = None  # low-passed accelerometer, m/s^2
+    gyr_lp: LowPass2 | None = None  # low-pass of the gyroscope, rad/s (None before the first sample)
+    acc_lp: LowPass2 | None = None  # low-pass of the accelerometer, m/s^2
+    dt: float = 0.0  # the sample period the low-passes were designed for
     still_for: float = 0.0  # seconds the samples have been still
     rest: bool = False
-
-
-def _still(gyr: Array, acc: Array, s: RestState, p: RestParams) -> bool:
-    """VQF's rest test for one sample: near the low-passed values, low-passed rate small."""
-    return bool(np.linalg.norm(gyr - s.gyr_lp) < p.gyr_threshold
-                and np.linalg.norm(acc - s.acc_lp) < p.acc_threshold
-                and np.max(np.abs(s.gyr_lp)) < p.gyr_max_rate)
 
 
 class RestDetector:
     """Streaming rest detection after the idea of VQF (Laidig & Seel 2023), own code.
 
-    Each sample updates first-order low-passes of the gyroscope and accelerometer;
-    the sample is still when it is within the thresholds of them (:func:`_still`);
-    rest is declared once the samples have been still for ``min_duration`` and ends
-    with the first sample that is not. A non-finite sample or time step ends rest too.
+    Each sample updates second-order low-passes of the gyroscope and accelerometer
+    (:mod:`tracker.lowpass`); the sample is still when it is within the thresholds
+    of them and the low-passed rate is small; rest is declared once the samples
+    have been still for ``min_duration`` and ends with the first sample that is
+    not. A non-finite sample or time step ends rest too. Plain floats throughout:
+    the default filter runs one per sample.
     """
 
     def __init__(self, params: RestParams | None = None) -> None:
@@ -168,23 +165,31 @@ class RestDetector:
         """Whether the last sample was at rest."""
         return self._state.rest
 
+    @property
+    def gyr_lp(self) -> tuple[float, float, float] | None:
+        """The low-passed gyroscope (rad/s), None before the first sample."""
+        return self._state.gyr_lp.y if self._state.gyr_lp else None
+
     def reset(self) -> None:
         """Forget everything; the next sample starts afresh."""
         self._state = RestState()
 
-    def update(self, gyr: ArrayLike, acc: ArrayLike, dt: float) -> bool:
+    def update(self, gyr: Sequence[float], acc: Sequence[float], dt: float) -> bool:
         """Feed one sample (rad/s, m/s^2, seconds since the last); whether the board is at rest."""
-        g, a, s = _vec3(gyr), _vec3(acc), self._state
-        if not (np.all(np.isfinite(g)) and np.all(np.isfinite(a)) and math.isfinite(dt) and dt > 0):
+        s, p = self._state, self.params
+        g = (float(gyr[0]), float(gyr[1]), float(gyr[2]))
+        a = (float(acc[0]), float(acc[1]), float(acc[2]))
+        if not (all(map(math.isfinite, g)) and all(map(math.isfinite, a)) and math.isfinite(dt) and dt > 0):
             s.still_for, s.rest = 0.0, False
             return False
-        if s.gyr_lp is None or s.acc_lp is None:
-            s.gyr_lp, s.acc_lp = g.copy(), a.copy()
-        k = _lowpass_gain(dt, self.params.tau)
-        s.gyr_lp += k * (g - s.gyr_lp)
-        s.acc_lp += k * (a - s.acc_lp)
-        s.still_for = s.still_for + dt if _still(g, a, s, self.params) else 0.0
-        s.rest = s.still_for >= self.params.min_duration - 1e-9
+        if s.gyr_lp is None or abs(dt - s.dt) > 1e-3 * s.dt:
+            s.gyr_lp, s.acc_lp, s.dt = LowPass2.design(p.tau, dt), LowPass2.design(p.tau, dt), dt
+        gl, al = s.gyr_lp(g), s.acc_lp(a)
+        still = ((g[0] - gl[0]) ** 2 + (g[1] - gl[1]) ** 2 + (g[2] - gl[2]) ** 2 < p.gyr_threshold ** 2
+                 and (a[0] - al[0]) ** 2 + (a[1] - al[1]) ** 2 + (a[2] - al[2]) ** 2 < p.acc_threshold ** 2
+                 and max(abs(gl[0]), abs(gl[1]), abs(gl[2])) < p.gyr_max_rate)
+        s.still_for = s.still_for + dt if still else 0.0
+        s.rest = s.still_for >= p.min_duration - 1e-9
         return s.rest
 
 

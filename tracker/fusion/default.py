@@ -23,8 +23,10 @@ the horizontal part of the magnetic field, seen in the 6D frame, to north.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
+from ..calibration import RestDetector, RestParams
+from ..lowpass import LowPass2
 from .base import Filter
 from .qmath import IDENTITY, Quat, Vec, from_rotvec, mul, normalize, rotate, rotate_inverse
 
@@ -51,49 +53,6 @@ class DefaultParams:
 
 
 @dataclass
-class _LowPass2:
-    """A second-order Butterworth low-pass on a 3-vector (bilinear transform).
-
-    Coefficients from the analogue prototype H(s) = 1 / (s^2 + sqrt(2) s + 1)
-    with the cut-off prewarped, K = tan(pi fc Ts), as VQF sec. 3.2 uses with
-    fc = sqrt(2) / (2 pi tau). Direct form II transposed per axis.
-    """
-
-    b0: float
-    b1: float
-    b2: float
-    a1: float
-    a2: float
-    s1: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
-    s2: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
-    primed: bool = False
-
-    @classmethod
-    def design(cls, tau: float, dt: float) -> "_LowPass2":
-        fc = math.sqrt(2.0) / (2.0 * math.pi * tau)
-        k = math.tan(math.pi * min(fc * dt, 0.49))
-        norm = 1.0 + math.sqrt(2.0) * k + k * k
-        b0 = k * k / norm
-        return cls(b0, 2 * b0, b0, 2.0 * (k * k - 1.0) / norm, (1.0 - math.sqrt(2.0) * k + k * k) / norm)
-
-    def __call__(self, x: Vec) -> Vec:
-        if not self.primed:  # start in steady state at the first input (fast start-up)
-            self.primed = True
-            for i in range(3):
-                self.s1[i] = x[i] * (1.0 - self.b0)
-                self.s2[i] = x[i] * (self.b2 - self.a2)
-            return x
-        out = []
-        b0, b1, b2, a1, a2, s1, s2 = self.b0, self.b1, self.b2, self.a1, self.a2, self.s1, self.s2
-        for i in range(3):
-            y = b0 * x[i] + s1[i]
-            s1[i] = b1 * x[i] - a1 * y + s2[i]
-            s2[i] = b2 * x[i] - a2 * y
-            out.append(y)
-        return (out[0], out[1], out[2])
-
-
-@dataclass
 class DefaultState:
     """Everything the default filter has learned (read with get_state, restore with set_state)."""
 
@@ -108,9 +67,8 @@ class DefaultState:
     mag_dip: float = 0.0  # reference dip angle (rad)
     mag_samples: int = 0  # undisturbed magnetometer samples used so far
     dt: float = 0.0  # the sample period the low-passes were designed for
-    acc_lp: _LowPass2 | None = None
-    rest_gyr_lp: _LowPass2 | None = None
-    rest_acc_lp: _LowPass2 | None = None
+    acc_lp: LowPass2 | None = None
+    rest: RestDetector | None = None
 
 
 class DefaultFilter(Filter[DefaultParams, DefaultState]):
@@ -126,9 +84,11 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
     def _design(self, dt: float) -> None:
         s, p = self._state, self.params
         s.dt = dt
-        s.acc_lp = _LowPass2.design(p.tau_acc, dt)
-        s.rest_gyr_lp = _LowPass2.design(p.rest_tau, dt)
-        s.rest_acc_lp = _LowPass2.design(p.rest_tau, dt)
+        s.acc_lp = LowPass2.design(p.tau_acc, dt)
+        if s.rest is None:
+            # Fed the raw rate, so the low-passed rate may be as large as the bias can be.
+            s.rest = RestDetector(RestParams(p.rest_gyr_th, p.rest_acc_th, 2 * p.bias_max,
+                                             p.rest_min_t, p.rest_tau))
 
     def _step(self, gyr: Vec, acc: Vec | None, mag: Vec | None, dt: float) -> Quat:
         s, p = self._state, self.params
@@ -157,19 +117,12 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
     def _detect_rest(self, gyr: Vec, acc: Vec, dt: float) -> None:
         """Rest when gyro and accelerometer stay near their low-passed values (VQF sec. 3.3)."""
         s, p = self._state, self.params
-        g_lp = s.rest_gyr_lp(gyr)
-        a_lp = s.rest_acc_lp(acc)
-        dg = (gyr[0] - g_lp[0]) ** 2 + (gyr[1] - g_lp[1]) ** 2 + (gyr[2] - g_lp[2]) ** 2
-        da = (acc[0] - a_lp[0]) ** 2 + (acc[1] - a_lp[1]) ** 2 + (acc[2] - a_lp[2]) ** 2
-        still = dg < p.rest_gyr_th ** 2 and da < p.rest_acc_th ** 2 \
-            and abs(g_lp[0]) < p.bias_max * 2 and abs(g_lp[1]) < p.bias_max * 2 and abs(g_lp[2]) < p.bias_max * 2
-        s.rest_t = s.rest_t + dt if still else 0.0
-        rest = s.rest_t >= p.rest_min_t
+        rest = s.rest.update(gyr, acc, dt)
         self.flags.rest = rest
         if rest:
             # At rest the low-passed gyro is the bias (VQF sec. 3.3): follow it quickly.
             k = min(1.0, dt / p.bias_tau_rest)
-            s.bias = self._clamp(tuple(bi + k * (gi - bi) for bi, gi in zip(s.bias, g_lp)))
+            s.bias = self._clamp(tuple(bi + k * (gi - bi) for bi, gi in zip(s.bias, s.rest.gyr_lp)))
 
     def _clamp(self, b: tuple[float, ...]) -> Vec:
         m = self.params.bias_max
