@@ -12,7 +12,7 @@ import json
 import sys
 import time
 from pathlib import Path
-from typing import Iterator, Sequence
+from typing import Callable, Iterator, Sequence
 
 from . import bench, protocol as P
 from .evaluate import DatasetError
@@ -43,8 +43,8 @@ def add_source_options(p: argparse.ArgumentParser) -> None:
 
 
 @contextlib.contextmanager
-def open_source(args: argparse.Namespace) -> Iterator[Link]:
-    """Open the board the options name (a virtual one for ``--virtual``)."""
+def open_source(args: argparse.Namespace, tap: Callable[[bytes], None] | None = None) -> Iterator[Link]:
+    """Open the board the options name (a virtual one for ``--virtual``); ``tap`` sees every byte read."""
     with contextlib.ExitStack() as stack:
         if args.virtual:
             from .board import VirtualBoard  # POSIX only: imported when asked for
@@ -55,6 +55,7 @@ def open_source(args: argparse.Namespace) -> Iterator[Link]:
             port = _autodetect()
         settings = LinkSettings(port, baud=args.baud, rate_hz=args.rate, mode=P.Mode[args.mode.upper()])
         link = Link(settings)
+        link.tap = tap
         link.open()
         stack.callback(link.close)
         yield link
@@ -173,16 +174,15 @@ def cmd_monitor(args: argparse.Namespace) -> int:
 
 def cmd_record(args: argparse.Namespace) -> int:
     status = StatusLine()
-    with open_source(args) as link:
+    raw = RawRecorder(args.raw)
+    with open_source(args, tap=raw.write) as link:
         legacy = link.health().legacy_text
         header = {"created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "port": link.settings.port,
                   "legacy_text": legacy, "text_order": link.settings.text_order,
                   "hello": link.hello.to_json() if link.hello else None}
-        raw = RawRecorder(args.raw, header)
+        # The stream describes itself: the board's hello goes first.
+        raw.begin(header, P.encode_hello(link.hello) if link.hello and not legacy else b"")
         table = CsvRecorder(args.csv, link.hello) if args.csv else None
-        if link.hello and not legacy:
-            raw.write(P.encode_hello(link.hello))  # the stream describes itself
-        link.tap = raw.write
         end = _until(args.seconds)
         try:
             while time.monotonic() < end:

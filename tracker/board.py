@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from . import protocol as P
-from .motion import MotionSource, ScriptedArm, SensorReading
+from .motion import MotionSource, SensorReading
 
 MPU9250_WHOAMI = 0x71
 AK8963_WHOAMI = 0x48
@@ -104,8 +104,8 @@ class VirtualBoard:
 
     def __init__(self, motion: MotionSource | None = None, settings: BoardSettings | None = None,
                  faults: Faults | None = None, link: str | os.PathLike | None = None) -> None:
-        self.motion = motion or ScriptedArm()
         self.settings = settings or BoardSettings()
+        self.motion = motion or _default_motion(self.settings.rate_hz)
         self.faults = faults or Faults()
         self._tmpdir = None if link else tempfile.TemporaryDirectory(prefix="energyball-")
         self.link = Path(link) if link else Path(self._tmpdir.name) / "ttyVIRTUAL"
@@ -348,6 +348,11 @@ class VirtualBoard:
         attrs = termios.tcgetattr(fd)
         attrs[4] = attrs[5] = getattr(termios, f"B{baud}")
         termios.tcsetattr(fd, termios.TCSANOW, attrs)
+
+
+def _default_motion(rate_hz: float) -> MotionSource:
+    from .sim import arm_source  # the simulator is heavier than the board; load it when needed
+    return arm_source(rate_hz)
 
 
 def _counts(values: tuple[float, ...], lsb: float) -> tuple[int, ...]:

@@ -20,6 +20,7 @@ import csv
 import io
 import json
 import math
+import threading
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -46,18 +47,39 @@ class RecordingError(Exception):
 
 
 class RawRecorder:
-    """Writes a ``.bin`` recording atomically (it appears complete, or not at all)."""
+    """Writes a ``.bin`` recording atomically (it appears complete, or not at all).
 
-    def __init__(self, path: str | Path, header: dict) -> None:
+    Bytes may arrive (from a link's reader thread) before the header is known:
+    they are held until :meth:`begin` writes the header, so nothing is lost
+    between opening the link and starting the file.
+    """
+
+    def __init__(self, path: str | Path) -> None:
         self._out = AtomicFile(path, "wb")
-        self._out.file.write(MAGIC + json.dumps(header).encode() + b"\n")
+        self._pending = bytearray()
+        self._begun = False
+        self._lock = threading.Lock()
         self.bytes = 0
 
+    def begin(self, header: dict, prefix: bytes = b"") -> None:
+        """Write the header, then ``prefix`` and whatever arrived so far."""
+        with self._lock:
+            self._out.file.write(MAGIC + json.dumps(header).encode() + b"\n" + prefix + self._pending)
+            self.bytes += len(prefix) + len(self._pending)
+            self._pending.clear()
+            self._begun = True
+
     def write(self, chunk: bytes) -> None:
-        self._out.file.write(chunk)
-        self.bytes += len(chunk)
+        with self._lock:
+            if not self._begun:
+                self._pending += chunk
+                return
+            self._out.file.write(chunk)
+            self.bytes += len(chunk)
 
     def close(self) -> None:
+        if not self._begun:
+            self.begin({})
         self._out.commit()
 
 

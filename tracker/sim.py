@@ -352,7 +352,7 @@ def arm_chain(upper_arm_m: float = 0.30, forearm_m: float = 0.27, sensor_m: floa
     """Seed 000's arm: the IMU on the upper arm near the elbow, the elbow a hinge about its y.
 
     The root is the upper arm turning about the shoulder; at identity it hangs
-    along -z (as :class:`tracker.motion.ScriptedArm`) with the sensor
+    along -z with the sensor
     ``sensor_m`` below the shoulder. The forearm hinges about the sensor's y
     axis (seed 000, sec. 3; ARCHITECTURE.md); a positive flex swings it toward
     the sensor's -x. The flex sensor spans that hinge. Add the hand (0.08 m)
@@ -391,6 +391,11 @@ def arm_swing(raise_rad: float = 0.6, raise_period_s: float = 4.0, yaw_rad: floa
         return np.radians(lift(t, flex_deg / 2, flex_period_s))[:, None]
 
     return Motion(root, joints)
+
+
+def arm_source(rate_hz: float = 200.0, seed: int = 0) -> SimulatedSource:
+    """The virtual board's default wearer: :func:`arm_swing` on :func:`arm_chain` with MPU-9250 errors."""
+    return SimulatedSource(Simulator(arm_chain(), arm_swing(), mpu9250(), seed=seed), rate_hz)
 
 
 def finger_chain(lengths_m: Vec3 = (0.045, 0.025, 0.020), sensor_at: float = 0.5) -> Chain:

@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 
 from tracker import protocol as P
 from tracker.board import quantise
-from tracker.motion import ScriptedArm
+from tracker.sim import arm_source
 
 G = 9.80665
 MAX_FRAME = P.HEADER_SIZE + 255 + P.CRC_SIZE  # the longest frame any type can have
@@ -291,7 +291,7 @@ def test_mag_conversion_is_0_15_microtesla_per_count():
 
 def test_board_quantisation_inverts_host_conversion():
     """The virtual board's counts, converted back by the host, are within half an LSB."""
-    arm = ScriptedArm()
+    arm = arm_source(rate_hz=100.0)
     for t in (0.0, 0.37, 1.1, 2.5, 3.9):
         r = arm.reading(t)
         for acc_fs in P.ACC_FS_G:

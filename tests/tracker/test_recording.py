@@ -21,17 +21,20 @@ def recorded(tmp_path_factory):
     folder = tmp_path_factory.mktemp("rec")
     raw_path, csv_path = folder / "a.bin", folder / "a.csv"
     settings = BoardSettings(stream_at_boot=False, keep_sent=1000)
-    with VirtualBoard(settings=settings) as board, Link(LinkSettings(board.port)) as link:
-        raw = RawRecorder(raw_path, {"port": board.port, "hello": link.hello.to_json()})
-        table = CsvRecorder(csv_path, link.hello)
+    raw = RawRecorder(raw_path)
+    with VirtualBoard(settings=settings) as board:
+        link = Link(LinkSettings(board.port))
         link.tap = raw.write
+        link.open()
+        raw.begin({"port": board.port, "hello": link.hello.to_json()})
+        table = CsvRecorder(csv_path, link.hello)
         live = list(link.samples(1.0))
         link.tap = None
         for s in live:
             table.write(s)
         raw.close()
         table.close()
-        link.command(P.Command(P.FrameType.STOP))
+        link.close()
     return raw_path, csv_path, live
 
 

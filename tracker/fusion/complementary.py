@@ -14,6 +14,10 @@ Conventions, converted at the boundary:
   sensor x axis at ``q^(0) = 1``); ours is ``+z``. So steps 3-4 use ``UP = (0, 0, 1)``
   and the paper's ``phi = arccos(-q_a1 / |q_a|)`` becomes ``arccos(v . UP)``.
   Like the paper's, the estimate starts at the identity.
+- Step 1 rotates the accelerometer by ``q^(t)``, the estimate *before* this
+  sample's rotation ``q_delta``: the paper pairs ``a(t)`` with ``q(t)``. Kept as
+  written; with an accelerometer read at the end of the sample interval this lags
+  the reference by one sample (no measurable effect on the BROAD trials).
 - ``alpha`` weights the gyroscope per sample, so the tilt correction's time
   constant is about ``dt / (1 - alpha)``: 10 s at 200 Hz, 7 s at 286 Hz for
   the default.

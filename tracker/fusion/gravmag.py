@@ -112,7 +112,7 @@ class GravMagFilter(Filter[GravMagParams, GravMagState]):
             s.rest_sum = (t[0] + gyr[0], t[1] + gyr[1], t[2] + gyr[2])
             s.rest_count += 1
             s.rest_for += dt
-            if s.rest_for >= self.params.rest_time:
+            if s.rest_for + 0.5 * dt >= self.params.rest_time:  # to the nearest sample
                 n = float(s.rest_count)
                 s.bias = (s.rest_sum[0] / n, s.rest_sum[1] / n, s.rest_sum[2] / n)
                 s.rest_sum, s.rest_count, s.rest_for, s.resting = _ZERO, 0, 0.0, True
@@ -125,9 +125,11 @@ class GravMagFilter(Filter[GravMagParams, GravMagState]):
     def _stillness(self, omega: Vec, acc: Vec | None) -> float:
         """The stillness ``alpha`` of eq. 15: 1 = no movement (the formula is ours, see above)."""
         p = self.params
-        x = (qm.norm3(omega) / p.still_gyr) ** 2
+        r = qm.norm3(omega) / p.still_gyr
+        x = r * r  # not r ** 2, which raises OverflowError for absurd finite input
         if acc is not None:
-            x += ((qm.norm3(acc) - p.gravity) / p.still_acc) ** 2
+            r = (qm.norm3(acc) - p.gravity) / p.still_acc
+            x += r * r
         return math.exp(-x)
 
 

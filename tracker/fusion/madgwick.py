@@ -34,7 +34,8 @@ before specialising them): with ``q = (w, u)``,
 
 which, for ``d = (0, 0, 1)``, expands to Madgwick's gravity Jacobian term by term
 (the tests check it against finite differences). The reusable pieces
-(:func:`gradient`, :func:`descend`, :func:`level`, :func:`align_heading`) serve
+(:func:`gradient`, :func:`descend`, :func:`heading_reference`, :func:`level`,
+:func:`align_heading`) serve
 :mod:`.hinge` and :mod:`.switching` too.
 
 Fast start: on the first sample with a usable accelerometer the estimate is set
@@ -125,15 +126,19 @@ def unit(v: Vec) -> Vec:
     return (v[0] / n, v[1] / n, v[2] / n)
 
 
-def earth_field(q: Quat, mag_unit: Vec) -> Vec:
-    """The field reference in ENU, ``(0, sqrt(h_x^2 + h_y^2), h_z)`` with ``h = q m q*``.
+def heading_reference(q: Quat, meas_unit: Vec, toward: Vec) -> Vec:
+    """The world reference for ``meas_unit`` that corrects the heading only.
 
-    [M10] sec. 3.4 (there ``b = (0, |h_xy|, 0, h_z)``, north along x): only the
-    inclination of the measured field is kept and its horizontal part is put on
-    north, so a disturbed field cannot tilt the estimate.
+    [M10] sec. 3.4's magnetic distortion compensation: with ``h = q m q*`` the
+    measurement in the world, the reference is ``(0, sqrt(h_x^2 + h_y^2), h_z)``
+    (ENU; Madgwick's ``(0, |h_xy|, 0, h_z)`` has north along x), so the second
+    vector cannot tilt the estimate, only turn it about up. Here the horizontal
+    part goes along the unit horizontal direction ``toward``: north for the
+    magnetometer, the hinge axis for :mod:`.hinge`.
     """
-    hx, hy, hz = Q.rotate(q, mag_unit)
-    return (0.0, math.sqrt(hx * hx + hy * hy), hz)
+    hx, hy, hz = Q.rotate(q, meas_unit)
+    horizontal = math.hypot(hx, hy)
+    return (horizontal * toward[0], horizontal * toward[1], hz)
 
 
 def level(q: Quat, acc: Vec) -> Quat:
@@ -169,10 +174,12 @@ class MadgwickParams:
     """Settings of the Madgwick filter.
 
     beta: the gradient step in rad/s ([M10] sec. 3.3, seed 003 eq. (18)); Madgwick
-    relates it to the gyroscope error as ``beta = sqrt(3/4) * omega_err``. 0.1 is
-    Madgwick's own default and sits near the optimum on the BROAD trials in
-    ../shared/data/broad (6D inclination RMSE and 9D total RMSE both flat within a few
-    tenths of a degree for beta in 0.05..0.15).
+    relates it to the gyroscope error as ``beta = sqrt(3/4) * omega_err``. Default
+    0.1, Madgwick's own, is the best 9D setting on the BROAD trials in
+    ../shared/data/broad (mean total RMSE 3.65 deg over the 9 trials; 0.06: 3.83,
+    0.08: 3.66, 0.12: 3.74, 0.15: 3.97). The IMU form prefers a smaller step
+    (inclination RMSE 2.16 deg at 0.04, 2.58 at 0.08, 2.85 at 0.1): pass
+    ``beta=0.04`` when there is no magnetometer.
     """
 
     beta: float = 0.1
@@ -203,7 +210,7 @@ class Madgwick(Filter[MadgwickParams, MadgwickState]):
         if mag is None:
             return None
         m = unit(mag)
-        return earth_field(q, m), m
+        return heading_reference(q, m, NORTH), m
 
     def _step(self, gyr: Vec, acc: Vec | None, mag: Vec | None, dt: float) -> Quat:
         s = self._state

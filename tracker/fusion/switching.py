@@ -79,12 +79,13 @@ class SwitchingParams:
     ``(i_k + 1) l_max`` for a single link; default 0.30 m, the upper arm
     (ARCHITECTURE.md arm model).
     gyro_error: ``|domega|``, the gyroscope's average error in rad/s after bias
-    calibration (eq. (8)); default 0.003 rad/s (0.17 deg/s). On the BROAD trials
-    (../shared/data/broad) 0.002-0.005 do best; 0.01 doubles the inclination RMSE
-    (too few gravity fixes while moving).
-    acc_noise: the accelerometer error in m/s^2 allowed before a residual counts as
-    a disturbance; default 0.5 (about 50 mg: the MPU-9250's noise plus part of its
-    zero-g offset). Below about 0.25 noise alone keeps a still sensor integrating.
+    calibration (eq. (8)); default 0.003 rad/s (0.17 deg/s), the best of
+    0.002/0.003/0.005/0.01 on the BROAD trials (../shared/data/broad: 6D inclination
+    RMSE 6.6/5.8/6.3/11.0 deg): a larger value trusts gravity too soon while moving,
+    a smaller one integrates too long.
+    acc_noise: the accelerometer error in m/s^2 allowed before a gap counts as a
+    disturbance; default 0.5 (about 50 mg: the MPU-9250's noise plus part of its
+    zero-g offset); 0.25 and 1.0 score 6.6 and 6.7 deg on BROAD.
     gravity: ``|g|`` in m/s^2.
     """
 
