@@ -278,6 +278,21 @@ def cmd_fuse(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_experiment(args: argparse.Namespace) -> int:
+    from . import experiments
+    run, plot = {"static-drift": (experiments.static_drift, experiments.plot_static_drift),
+                 "finger-grasp": (experiments.finger_grasp, experiments.plot_finger_grasp)}[args.name]
+    result = run(progress=lambda text: print(text, file=sys.stderr, flush=True))
+    if args.plot:
+        try:
+            plot(result, args.plot)
+        except RuntimeError as e:  # matplotlib missing
+            raise UsageError(str(e)) from None
+        print(f"wrote {args.plot}", file=sys.stderr)
+    print(json.dumps(result) if args.json else json.dumps(result, indent=1))
+    return 0
+
+
 def cmd_virtual(args: argparse.Namespace) -> int:
     from .board import BoardSettings, Faults, VirtualBoard
     settings = BoardSettings(rate_hz=args.rate, legacy_text=args.legacy)
@@ -373,6 +388,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--dof", type=int, choices=[6, 9], default=6)
     p.add_argument("--out", required=True, metavar="OUT.npz")
     p.set_defaults(func=cmd_fuse)
+
+    p = sub.add_parser("experiment", help="reproduce a paper's experiment in simulation")
+    p.add_argument("name", choices=["static-drift", "finger-grasp"],
+                   help="static-drift: seed 002 sec. 4.1; finger-grasp: seed 003 sec. 3")
+    p.add_argument("--plot", metavar="PNG", help="also draw the result (needs the plot extra)")
+    p.add_argument("--json", action="store_true", help="one line of JSON")
+    p.set_defaults(func=cmd_experiment)
 
     p = sub.add_parser("virtual", help="serve a virtual board on a pty for other programs")
     p.add_argument("--link", help="stable path to create for the pty (a symlink)")

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 from typing import Callable, Sequence
 
 import numpy as np
@@ -142,14 +143,18 @@ def grasp_rate(move_s: float, rate: float, max_rate: float, motion_samples: int)
 
 
 def flexion_angle(q_ws: Array) -> Array:
-    """The flexion angle theta of a link from its orientation (seed 003, sec. 2.1).
+    """The flexion angle theta of a link from its orientation (seed 003, sec. 2.1), heading-free.
 
-    theta turns y towards z about x: the sensor's y axis is ``(0, cos theta,
-    sin theta)`` in the world, so ``theta = atan2(y_z, y_y)``. For an estimate
-    with out-of-plane error this is the angle of y projected onto the flexion plane.
+    In the vertical flexion plane theta is fixed by the link's inclination:
+    world up seen from the sensor, ``q* (0, 0, 1) q``, is ``(0, sin theta,
+    cos theta)``, so ``theta = atan2(up_y, up_z)``, the same formula as
+    :func:`gravity_angle` applied to the estimate. A heading error (a turn about
+    world z, which the flat model of the paper cannot have and a filter without
+    a heading reference accumulates) leaves it unchanged; an out-of-plane tilt
+    enters only as the projection onto the flexion plane.
     """
-    y = Q.rotate(q_ws, [0.0, 1.0, 0.0])
-    return np.arctan2(y[..., 2], y[..., 1])
+    up = Q.rotate(Q.conjugate(q_ws), [0.0, 0.0, 1.0])
+    return np.arctan2(up[..., 1], up[..., 2])
 
 
 def gravity_angle(acc: Array) -> Array:
@@ -176,27 +181,34 @@ def integrated_angle(gyr_x: Array, theta0: Array, rate: float) -> Array:
     return theta0 + np.concatenate([np.zeros_like(gyr_x[:1]), np.cumsum(steps, axis=0)])
 
 
-def _filter_params(name: str, sensor: sim.SensorSpec, chain: sim.Chain, errors: sim.SensorErrors,
-                   rate: float) -> dict:
-    """Settings of the seed 003 filters for one finger sensor, from the paper and the error model.
+def _filter_params(name: str, sensor: sim.SensorSpec, chain: sim.Chain, rate: float) -> dict:
+    """Settings of the seed 003 filters for one finger sensor, from the paper and the data sheet.
 
-    - switching (sec. 2.2.4-2.2.5): ``lever`` is the bound's ``(i_k + 1) l_max``,
-      link i_k counted from 0 at the first phalanx; ``gyro_error`` is the mean
-      AVS deviation ``|Delta omega|`` of eq. 8, the data-sheet offset bound plus
-      the white noise's standard deviation at this rate.
+    Both are set for an MPU-9250 as its data sheet describes it, the same in
+    every error series (the paper's filters do not know which series runs):
+    the gyroscope error per axis is ``omega_err`` = the zero-rate offset bound
+    plus the white noise's standard deviation at this rate.
+
+    - switching (sec. 2.2.4-2.2.5): ``lever`` is the bound's ``(i_k + 1) l_max``
+      (phalanx i_k counted from 0, so i_k + 1 is the sensor's link index in
+      :func:`tracker.sim.finger_chain`); ``gyro_error`` = ``omega_err``, the
+      AVS deviation ``|Delta omega|`` of eq. 8.
     - hinge (sec. 2.3): the flexion-plane normal is x in the sensor (the hinge
       axis, sec. 2.1) and x in the world (the metacarpus is still at identity);
-      beta is the filter's default.
+      a static beta (sec. 3) by Madgwick's rule ``beta = sqrt(3/4) omega_err``
+      (the filter gain for a gyroscope error of omega_err on each axis; [M10] in
+      :mod:`tracker.fusion.madgwick`): a smaller one cannot keep up with the
+      offsets, "the divergence of the estimate over time" (sec. 3).
     """
+    omega_err = sim.GYR_OFFSET_MAX + sim.GYR_NOISE_DENSITY * math.sqrt(rate)
     if name == "switching":
         l_max = max(link.length_m for link in chain.links)
-        g = errors.gyr
-        return {"lever": sensor.link * l_max, "gyro_error": g.offset_max + g.noise_density * math.sqrt(rate)}
-    return {"hinge_sensor": (1.0, 0.0, 0.0), "hinge_world": (1.0, 0.0, 0.0)}
+        return {"lever": sensor.link * l_max, "gyro_error": omega_err}
+    return {"hinge_sensor": (1.0, 0.0, 0.0), "hinge_world": (1.0, 0.0, 0.0),
+            "beta": math.sqrt(0.75) * omega_err}
 
 
-def grasp_estimates(data: sim.SimData, chain: sim.Chain, errors: sim.SensorErrors,
-                    rate: float) -> dict[str, Array]:
+def grasp_estimates(data: sim.SimData, chain: sim.Chain, rate: float) -> dict[str, Array]:
     """Each algorithm's flexion angles (N, sensors) for one simulated grasp (seed 003, sec. 3).
 
     The two filters run through the common interface (``make(name).run``) from
@@ -208,7 +220,7 @@ def grasp_estimates(data: sim.SimData, chain: sim.Chain, errors: sim.SensorError
                  "integration": integrated_angle(data.gyr[..., 0], theta0, rate)}
     for name in ("switching", "hinge"):
         estimates[name] = np.stack(
-            [flexion_angle(make(name, **_filter_params(name, s, chain, errors, rate))
+            [flexion_angle(make(name, **_filter_params(name, s, chain, rate))
                            .run(data.gyr[:, k], data.acc[:, k], None, rate))
              for k, s in enumerate(chain.sensors)], axis=1)
     return estimates
@@ -232,7 +244,7 @@ def grasp_errors(move_s: float, rate: float, errors: sim.SensorErrors, seed: int
                          ).simulate(GRASP_DELAY_S + move_s, rate)
     truth = flexion_angle(data.truth.q_sensors)
     return {name: rms_error_deg(est, truth)
-            for name, est in grasp_estimates(data, chain, errors, rate).items()}
+            for name, est in grasp_estimates(data, chain, rate).items()}
 
 
 def finger_grasp(durations: Sequence[float] = tuple(np.logspace(-1, 3, 32)), rate: float = 100.0,
@@ -249,6 +261,19 @@ def finger_grasp(durations: Sequence[float] = tuple(np.logspace(-1, 3, 32)), rat
     error quantity is the flexion angle of the sensed links (the paper's flat
     model estimates exactly that), pooled over both sensors and the whole run.
     The same seed gives every run the same sensor offsets.
+
+    Two features of the curves that are ours, not the paper's: the integration
+    error is wrapped (an orientation error), so it levels off near 104 deg (the
+    RMS of an error spread evenly over a turn) beyond about 100 s with offsets;
+    and the switching filter treats a gyroscope reading at the MPU-9250's full
+    scale (2000 deg/s) as saturated and takes gravity instead
+    (:mod:`tracker.fusion.switching`), which grasps shorter than about 0.4 s
+    exceed on the distal sensor, hence its bump there.
+
+    Runtime: at the default 100 Hz (raised to at most 1 kHz for motions under
+    1 s) the default grid is about 0.4 million samples per sensor and series,
+    some 80 s on one core; the filters' per-sample Python loop dominates.
+    Progress: one message per motion.
     """
     durations = [float(d) for d in durations]
     rates = [grasp_rate(d, rate, max_rate, motion_samples) for d in durations]
@@ -268,55 +293,49 @@ def finger_grasp(durations: Sequence[float] = tuple(np.logspace(-1, 3, 32)), rat
 # ------------------------------------------------------------ figures
 
 
-def _pyplot():
-    """matplotlib's pyplot on the file-only Agg backend, or a clear error without it."""
+def _figure(width_in: float, height_in: float):
+    """A matplotlib Figure (no pyplot, no global state), or a clear error without matplotlib."""
     try:
-        import matplotlib
+        from matplotlib.figure import Figure
     except ImportError:
         raise RuntimeError("matplotlib is not installed: pip install '.[plot]'") from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
+    return Figure(figsize=(width_in, height_in), layout="tight")
 
 
-def _save(fig, path: str) -> None:
-    """Write the figure as PNG atomically (tracker.atomic) and release it."""
-    plt = _pyplot()
+def _save_png(fig, path: str | os.PathLike) -> None:
+    """Write the figure as PNG atomically (ARCHITECTURE.md: nothing saved is half-written)."""
     with AtomicFile(path, "wb") as f:
         fig.savefig(f.file, format="png", dpi=120)
-    plt.close(fig)
 
 
-def plot_static_drift(result: dict, path: str) -> None:
+def plot_static_drift(result: dict, path: str | os.PathLike) -> None:
     """Seed 002, Figs. 11-12 in one chart: each IMU's final error with correction off and on."""
-    plt = _pyplot()
     imus = result["imus"]
+    fig = _figure(6, 4)
+    ax = fig.subplots()
     x = np.arange(len(imus))
-    fig, ax = plt.subplots(figsize=(6, 4))
     ax.bar(x - 0.2, [m["error_deg_off"] for m in imus], 0.4, label="correction off")
     ax.bar(x + 0.2, [m["error_deg_on"] for m in imus], 0.4, label="correction on")
     ax.set_xticks(x, [f"{m['bias_dps']:g} deg/s" for m in imus])
-    ax.set_xlabel("gyroscope bias (each axis)")
-    ax.set_ylabel(f"error after {result['minutes']:g} min (deg)")
+    ax.set_xlabel("gyroscope bias (on each axis)")
+    ax.set_ylabel(f"orientation error after {result['minutes']:g} min (deg)")
     ax.set_title("Static drift (seed 002, sec. 4.1)")
     ax.legend()
-    fig.tight_layout()
-    _save(fig, path)
+    _save_png(fig, path)
 
 
-def plot_finger_grasp(result: dict, path: str) -> None:
+def plot_finger_grasp(result: dict, path: str | os.PathLike) -> None:
     """Seed 003, Figure 10: RMS error against motion duration, one panel per error series."""
-    plt = _pyplot()
     series = result["series"]
-    fig, axes = plt.subplots(1, len(series), figsize=(5 * len(series), 4), sharey=True)
-    for ax, (name, rms) in zip(np.atleast_1d(axes), series.items()):
+    fig = _figure(4.5 * len(series), 4)
+    axes = np.atleast_1d(fig.subplots(1, len(series), sharey=True))
+    for ax, (name, rms) in zip(axes, series.items()):
         for algorithm, values in rms.items():
             ax.loglog(result["durations_s"], values, marker=".", label=algorithm)
-        ax.set_title(f"errors: {name}")
+        ax.set_title(f"sensor errors: {name}")
         ax.set_xlabel("motion duration t_m (s)")
         ax.grid(True, which="both", alpha=0.3)
-    np.atleast_1d(axes)[0].set_ylabel("RMS flexion-angle error (deg)")
-    np.atleast_1d(axes)[0].legend()
+    axes[0].set_ylabel("RMS flexion-angle error (deg)")
+    axes[0].legend()
     fig.suptitle("Finger grasp (seed 003, sec. 3, Figure 10)")
-    fig.tight_layout()
-    _save(fig, path)
+    _save_png(fig, path)

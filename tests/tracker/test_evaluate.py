@@ -133,3 +133,17 @@ def test_default_filter_on_real_ground_truth_json_shape():
     assert set(results[0]) == {"trial", "filter", "dof", "total", "heading", "inclination"}
     # The default filter tracks inclination to about half a degree on real data.
     assert np.mean([x["inclination"] for x in results]) < 1.0
+
+
+def test_fuse_a_recording_writes_unit_quaternions(tmp_path):
+    raw = tmp_path / "r.bin"
+    r = armtracker("record", "--virtual", "--seconds", "1", "--raw", str(raw))
+    assert r.returncode == 0, r.stderr
+    out = tmp_path / "q.npz"
+    r = armtracker("fuse", str(raw), "--filter", "default", "--dof", "9", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    with np.load(out) as z:
+        quat = z["quat"]
+        assert float(z["rate"]) == pytest.approx(200.0)
+    assert quat.shape[1] == 4 and len(quat) >= 150
+    assert np.allclose(np.linalg.norm(quat, axis=1), 1.0)

@@ -39,7 +39,12 @@ def rotating(q0: Rotation, omega_body: np.ndarray, seconds: float):
     return truth, gyr, acc, mag
 
 
-@pytest.mark.parametrize("name", FILTERS)
+# The hinge filter assumes the segment turns about a known horizontal hinge; free
+# tilts and turns about the vertical break that assumption (its own tests cover it).
+FREE = [n for n in FILTERS if n != "hinge"]
+
+
+@pytest.mark.parametrize("name", FREE)
 def test_static_tilt_inclination_converges(name):
     truth = Rotation.from_euler("xyz", [25, -15, 60], degrees=True)
     gyr, acc, mag = static(truth, 20.0)
@@ -57,7 +62,7 @@ def test_static_heading_converges_to_enu_with_a_magnetometer(name):
     assert math.degrees(total) < 2.0
 
 
-@pytest.mark.parametrize("name", FILTERS)
+@pytest.mark.parametrize("name", FREE)
 def test_constant_rate_rotation_is_followed(name):
     truth, gyr, acc, mag = rotating(Rotation.identity(), np.radians([0, 0, 45]), 8.0)
     q = make(name).run(gyr, acc, None, RATE)
@@ -84,6 +89,8 @@ def test_norm_stays_one_and_bad_input_leaves_state_finite_and_flagged(name):
     assert f.flags.mag_ignored
     f.update((40.0, 0, 0), (200.0, 0, 0), mag[0], 1 / RATE)
     assert f.flags.saturated
+    f.update((1e300, 0, 0), (1e300, 0, 0), (1e300, 0, 0), 1 / RATE)
+    assert f.flags.skipped
     assert np.all(np.isfinite(f.quat)) and abs(np.linalg.norm(f.quat) - 1) < 1e-9
 
 

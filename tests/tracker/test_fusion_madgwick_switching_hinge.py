@@ -247,6 +247,23 @@ def test_switching_integrates_through_a_fast_disturbed_turn_and_returns_to_gravi
     assert total_deg(np.array(est), truth).max() < 0.05
 
 
+def test_switching_bound_grows_at_the_gyro_error_while_integrating():
+    """Seed 003 eq. (8): in fast mode the bound grows by dt |domega| a sample; a rate at
+    full scale voids it (pi), and the next clean gravity reading is taken at once."""
+    q0 = random_orientations(1, seed=16)[0]
+    f = make("switching")
+    start_at(f, q0)
+    errors = []
+    for _ in range(20):
+        f.update((0.0, 8.0, 0.0), None, None, DT)
+        errors.append(f.get_state().error)
+    assert np.allclose(np.diff(errors), DT * f.params.gyro_error, rtol=0, atol=1e-15)
+    f.update((0.0, 40.0, 0.0), (0.0, 0.0, G), None, DT)
+    assert f.flags.saturated and f.get_state().fast and f.get_state().error == math.pi
+    f.update((0.0, 0.0, 0.0), (0.0, 0.0, G), None, DT)
+    assert not f.get_state().fast and inclination_deg(f.quat, (1.0, 0.0, 0.0, 0.0)) < 1e-6
+
+
 def test_switching_at_rest_with_sensor_noise_stays_on_gravity():
     rng = np.random.default_rng(10)
     q = random_orientations(1, seed=11)[0]
@@ -287,6 +304,20 @@ def test_madgwick_marg_heading_converges_to_enu(omega):
     assert np.allclose(np.linalg.norm(est, axis=1), 1.0, atol=1e-12)
 
 
+def test_madgwick_disturbed_field_turns_the_heading_but_cannot_tilt():
+    """[M10] sec. 3.4: the field reference keeps the measured dip, so a field bent 40 degrees
+    (a nearby magnet) moves only the heading."""
+    q = random_orientations(1, seed=17)[0]
+    bent = Rotation.from_rotvec([0.4, 0.5, 0.3]).apply(FIELD)
+    n = int(30 * RATE)
+    f = make("madgwick")
+    start_at(f, q)
+    est = feed(f, np.zeros((n, 3)), np.tile(sensor_readings(q, G * UP), (n, 1)),
+               np.tile(sensor_readings(q, bent), (n, 1)))
+    assert total_deg(est[-1], q) > 10.0
+    assert inclination_deg(est[-1], q) < CHATTER_DEG
+
+
 def test_madgwick_imu_form_cannot_find_the_heading():
     """Without the field the 90 degree heading error stays: the contrast to the MARG and hinge forms."""
     q0 = random_orientations(1, seed=13)[0]
@@ -317,6 +348,17 @@ def test_hinge_tracks_a_swinging_segment_including_heading():
     imu = make("madgwick")
     start_at(imu, heading_turn(truth[0], 60.0))
     assert total_deg(feed(imu, gyr, acc)[-1], truth[-1]) > 50.0  # gravity alone keeps the wrong heading
+
+
+def test_hinge_axis_turns_the_heading_but_cannot_tilt():
+    """Poses that break the hinge (sensor y not horizontal) still settle level: at the
+    equilibrium the axis term leaves the inclination to gravity (heading_reference)."""
+    for q in TILTS:
+        f = make("hinge", beta=0.1)
+        start_at(f, (1.0, 0.0, 0.0, 0.0))
+        n = int(30 * RATE)
+        est = feed(f, np.zeros((n, 3)), np.tile(sensor_readings(q, G * UP), (n, 1)))
+        assert inclination_deg(est[-1], q) < CHATTER_DEG
 
 
 def test_hinge_fast_start_puts_the_axis_on_its_world_direction():

@@ -30,6 +30,7 @@ from .qmath import Quat, Vec
 
 GYR_SATURATION = math.radians(2000) * 0.999  # MPU-9250 at its widest full scale
 ACC_SATURATION = 16 * 9.80665 * 0.999
+PLAUSIBLE = 100.0  # readings beyond this many full scales are corrupt, not motion
 
 
 @dataclass
@@ -96,14 +97,14 @@ class Filter(ABC, Generic[P, S]):
         """Take one sample (rad/s, m/s^2, uT, seconds) and return the new q_WS."""
         flags = Flags()
         self.flags = flags
-        g = _finite3(gyr)
+        g = _finite3(gyr, GYR_SATURATION * PLAUSIBLE)
         if g is None or not (0.0 < dt < 1.0):
             flags.skipped = True
             return self._state.q
-        a = _finite3(acc)
+        a = _finite3(acc, ACC_SATURATION * PLAUSIBLE)
         if a is None or a == (0.0, 0.0, 0.0):
             flags.acc_ignored, a = True, None
-        m = _finite3(mag)
+        m = _finite3(mag, 1e4)
         if m is None or m == (0.0, 0.0, 0.0):
             flags.mag_ignored, m = True, None
         flags.saturated = (max(abs(g[0]), abs(g[1]), abs(g[2])) >= GYR_SATURATION
@@ -128,12 +129,12 @@ class Filter(ABC, Generic[P, S]):
         return out
 
 
-def _finite3(v: Sequence[float] | None) -> Vec | None:
-    """``v`` as a 3-tuple of floats, or None if absent or not all finite."""
+def _finite3(v: Sequence[float] | None, limit: float) -> Vec | None:
+    """``v`` as a 3-tuple of floats, or None if absent, not finite or beyond ``limit``."""
     if v is None:
         return None
     x, y, z = float(v[0]), float(v[1]), float(v[2])
-    if x - x != 0.0 or y - y != 0.0 or z - z != 0.0:  # NaN or inf, fast
+    if not (-limit < x < limit and -limit < y < limit and -limit < z < limit):  # also NaN
         return None
     return (x, y, z)
 

@@ -11,7 +11,7 @@ possible solution is chosen, taking into account the normal to the flexion
 plane" (sec. 2.3): gravity gives the inclination, the axis the heading.
 
 The axis takes the magnetometer's place in Madgwick's MARG filter, including
-its distortion compensation ([M10] sec. 3.4, :func:`.madgwick.heading_reference`):
+its distortion compensation (Madgwick 2010, sec. 3.4, :func:`.madgwick.heading_reference`):
 the reference is ``a_S`` seen in the world through the current estimate, with
 its horizontal part turned onto the horizontal direction of ``a_W``. So the
 objective pair is

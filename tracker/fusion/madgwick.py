@@ -13,7 +13,9 @@ References:
 - Seed paper 003 (``/work/shared/papers/003_*.txt``), sec. 2.3, which restates the
   filter: eq. (9) q_dot = 1/2 q (x) omega, eq. (11) the objective function,
   eq. (18) q_dot = q_dot_omega - beta grad/|grad|, eqs. (15) and (19) the Euler
-  step and the renormalisation.
+  step and the renormalisation. (The text copy drops equation labels; seed 003's
+  numbers here and in :mod:`.switching`/:mod:`.hinge` follow its own
+  cross-references. [M10] is cited by section only.)
 
 Convention. Madgwick's quaternion ``S_E q`` satisfies ``v_S = q* (x) v_E (x) q``, so
 it is numerically our ``q_WS`` (``v_W = q v_S q*``); no conversion is needed.
