@@ -26,6 +26,9 @@ class AtomicFile:
         fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".part",
                                    dir=self.path.parent if str(self.path.parent) else ".")
         self._tmp = Path(tmp)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(fd, 0o666 & ~umask)  # mkstemp makes 0600; a saved file gets the usual mode
         self.file: IO = os.fdopen(fd, mode, newline=newline) if "b" not in mode \
             else os.fdopen(fd, mode)
 

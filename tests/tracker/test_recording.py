@@ -123,3 +123,13 @@ def test_atomic_file_leaves_the_old_file_on_error_and_commits_on_interrupt(tmp_p
             raise KeyboardInterrupt
     assert json.loads(target.read_text()) == {"v": 3}
     assert [p.name for p in tmp_path.iterdir()] == ["keep.json"]  # no temporary left behind
+
+
+def test_atomic_files_get_the_usual_permissions(tmp_path):
+    import os
+    umask = os.umask(0o022)
+    try:
+        atomic_write(tmp_path / "a.txt", "x")
+    finally:
+        os.umask(umask)
+    assert (tmp_path / "a.txt").stat().st_mode & 0o777 == 0o644
