@@ -171,7 +171,7 @@ def _run_imufusion(trial: Trial, mag: np.ndarray | None) -> np.ndarray:
     settings.gyroscope_range = 2000.0
     settings.acceleration_rejection = 10.0
     settings.magnetic_rejection = 10.0
-    settings.rejection_timeout = 5.0  # seconds in Fusion 1.3
+    settings.rejection_timeout = 5.0 * trial.rate  # in samples: five seconds, as x-io's example
     settings.sample_rate = trial.rate
     ahrs = imufusion.Ahrs()
     ahrs.set_settings(settings)
@@ -223,24 +223,24 @@ TABLE_END = "<!-- evaluate-table:end -->"
 
 
 def markdown_table(results: list[dict]) -> str:
-    """Per-trial RMSE (6D inclination, 9D total) of every filter, with the mean row."""
-    filters = list(dict.fromkeys(r["filter"] for r in results))
+    """RMSE tables in degrees: 6D inclination and 9D total, a row per filter, a column per trial."""
     trials = list(dict.fromkeys(r["trial"] for r in results))
-    cell = {(r["trial"], r["filter"], r["dof"]): r for r in results}
-    columns = [(f, d) for d in (6, 9) for f in filters if any(k[1:] == (f, d) for k in cell)]
-    metric = {6: "inclination", 9: "total"}
-    head = "| trial | " + " | ".join(f"{f} {d}D" for f, d in columns) + " |"
-    lines = [head, "|---" * (len(columns) + 1) + "|"]
-    for t in trials:
-        values = [cell.get((t, f, d)) for f, d in columns]
-        lines.append(f"| {t} | " + " | ".join(f"{v[metric[d]]:.2f}" if v else "" for v, (_, d)
-                                                in zip(values, columns)) + " |")
-    means = []
-    for f, d in columns:
-        vals = [cell[(t, f, d)][metric[d]] for t in trials if (t, f, d) in cell]
-        means.append(f"**{np.mean(vals):.3f}**")
-    lines.append("| **mean** | " + " | ".join(means) + " |")
-    return "\n".join(lines)
+    short = [t.split("_")[0] for t in trials]
+    tables = []
+    for dof, metric in ((6, "inclination"), (9, "total")):
+        rows = [r for r in results if r["dof"] == dof]
+        if not rows:
+            continue
+        cell = {(r["filter"], r["trial"]): r[metric] for r in rows}
+        lines = [f"{dof}D {metric} RMSE (deg) | " + " | ".join(short) + " | mean",
+                 "|".join(["---"] * (len(trials) + 2))]
+        for name in dict.fromkeys(r["filter"] for r in rows):
+            values = [cell.get((name, t)) for t in trials]
+            mean = np.mean([v for v in values if v is not None])
+            lines.append(f"{name} | " + " | ".join("" if v is None else f"{v:.2f}" for v in values)
+                         + f" | **{mean:.3f}**")
+        tables.append("\n".join(f"| {line} |" for line in lines))
+    return "\n\n".join(tables)
 
 
 def write_readme_table(readme: str | Path, results: list[dict]) -> None:
