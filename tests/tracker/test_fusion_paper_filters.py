@@ -15,6 +15,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from tracker import quat
 from tracker.fusion import complementary, gravmag, make
+from tracker.fusion import qmath as qm
 from tracker.fusion.base import ACC_SATURATION, GYR_SATURATION
 
 RATE = 200.0
@@ -135,17 +136,19 @@ def test_gravmag_full_correction_maps_the_measurement_onto_the_reference(seed):
 
 
 def test_gravmag_between_handles_opposite_vectors():
+    """Delta q of eqs. 6-8 (qmath.between) where the paper's formula is 0/0."""
     for u in ([0.0, 0.0, -3.0], [1.0, 0.0, 0.0], [0.3, -0.2, 0.1]):
-        q = gravmag.between(tuple(u), tuple(-np.asarray(u)))
+        q = qm.between(tuple(u), tuple(-np.asarray(u)))
         np.testing.assert_allclose(quat.rotate(q, u), -np.asarray(u), atol=1e-12)
 
 
 @pytest.mark.parametrize("alpha", [0.0, 0.25, 0.5, 0.9, 1.0])
 def test_gravmag_slerp_is_eq_15(alpha):
-    """Eq. 15 against scipy's Slerp; alpha = 1 gives q_GA, alpha = 0 gives q_GM."""
+    """Eq. 15 (qmath.slerp, as gravmag calls it) against scipy's Slerp; alpha = 1 gives
+    q_GA, alpha = 0 gives q_GM."""
     q_gm, q_ga = random_attitudes(2, seed=7)
     q_ga = -q_ga if np.dot(q_gm, q_ga) > 0 else q_ga  # the other sign must not matter
-    out = gravmag.slerp(tuple(q_gm), tuple(q_ga), alpha)
+    out = qm.slerp(tuple(q_gm), tuple(q_ga), alpha)
     expected = Slerp([0.0, 1.0], rot(np.stack([q_gm, q_ga])))([alpha])
     assert total_deg(np.asarray(out), np.roll(expected.as_quat(), 1, axis=-1))[0] < 1e-9
 

@@ -31,11 +31,18 @@ from .qmath import Quat, Vec
 GYR_SATURATION = math.radians(2000) * 0.999  # MPU-9250 at its widest full scale
 ACC_SATURATION = 16 * 9.80665 * 0.999
 PLAUSIBLE = 100.0  # readings beyond this many full scales are corrupt, not motion
+_GYR_LIMIT = GYR_SATURATION * PLAUSIBLE
+_ACC_LIMIT = ACC_SATURATION * PLAUSIBLE
+_MAG_LIMIT = 1e4  # uT: the Earth's field is about 25-65
 
 
-@dataclass
+@dataclass(slots=True)
 class Flags:
-    """What happened in the last update (read-only for callers)."""
+    """What happened in the last update (read-only for callers).
+
+    Each update makes a new Flags, so one kept from an earlier update still
+    describes that update.
+    """
 
     skipped: bool = False  # the sample was unusable (non-finite gyroscope or dt)
     acc_ignored: bool = False  # accelerometer unusable (non-finite or zero)
@@ -68,9 +75,10 @@ class Filter(ABC, Generic[P, S]):
 
     # ------------------------------------------------------------ state
 
-    @abstractmethod
     def _initial_state(self) -> S:
-        """The state before the first sample."""
+        """The state before the first sample: ``State()`` with its defaults (override if
+        the state depends on the parameters)."""
+        return self.State()
 
     def reset(self) -> None:
         """Forget everything learned; the next sample starts afresh."""
@@ -95,21 +103,32 @@ class Filter(ABC, Generic[P, S]):
     def update(self, gyr: Sequence[float], acc: Sequence[float] | None,
                mag: Sequence[float] | None = None, dt: float = 0.005) -> Quat:
         """Take one sample (rad/s, m/s^2, uT, seconds) and return the new q_WS."""
-        flags = Flags()
-        self.flags = flags
-        g = _finite3(gyr, GYR_SATURATION * PLAUSIBLE)
-        if g is None or not (0.0 < dt < 1.0):
+        self.flags = flags = Flags()
+        # _finite3 written out for the gyroscope (the one input always present) and the
+        # saturation test as chained comparisons: this method runs once per sample.
+        if gyr is None:
             flags.skipped = True
             return self._state.q
-        a = _finite3(acc, ACC_SATURATION * PLAUSIBLE)
+        gx, gy, gz = float(gyr[0]), float(gyr[1]), float(gyr[2])
+        lim = _GYR_LIMIT
+        if not (-lim < gx < lim and -lim < gy < lim and -lim < gz < lim  # also NaN
+                and 0.0 < dt < 1.0):
+            flags.skipped = True
+            return self._state.q
+        a = _finite3(acc, _ACC_LIMIT)
         if a is None or a == (0.0, 0.0, 0.0):
             flags.acc_ignored, a = True, None
-        m = _finite3(mag, 1e4)
+        m = _finite3(mag, _MAG_LIMIT)
         if m is None or m == (0.0, 0.0, 0.0):
             flags.mag_ignored, m = True, None
-        flags.saturated = (max(abs(g[0]), abs(g[1]), abs(g[2])) >= GYR_SATURATION
-                           or (a is not None and max(abs(a[0]), abs(a[1]), abs(a[2])) >= ACC_SATURATION))
-        return self._step(g, a, m, dt)
+        # saturated: some |component| at or beyond full scale (all are finite here)
+        lim = GYR_SATURATION
+        if not (-lim < gx < lim and -lim < gy < lim and -lim < gz < lim):
+            flags.saturated = True
+        elif a is not None:
+            lim = ACC_SATURATION
+            flags.saturated = not (-lim < a[0] < lim and -lim < a[1] < lim and -lim < a[2] < lim)
+        return self._step((gx, gy, gz), a, m, dt)
 
     @abstractmethod
     def _step(self, gyr: Vec, acc: Vec | None, mag: Vec | None, dt: float) -> Quat:

@@ -28,16 +28,11 @@ Conventions, converted at the boundary:
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 from . import qmath as qm
 from .base import Filter
 from .qmath import Quat, Vec
-
-UP: Vec = (0.0, 0.0, 1.0)  # world up; the paper's v_up = (-1, 0, 0), see the module docstring
-_HALF_TURN_AXIS: Vec = (1.0, 0.0, 0.0)  # a horizontal axis for the undefined step-4 axis at phi = pi
-_TINY = 1e-12
 
 
 @dataclass
@@ -66,9 +61,6 @@ class ComplementaryFilter(Filter[ComplementaryParams, ComplementaryState]):
     Params = ComplementaryParams
     State = ComplementaryState
 
-    def _initial_state(self) -> ComplementaryState:
-        return ComplementaryState()
-
     def _step(self, gyr: Vec, acc: Vec | None, mag: Vec | None, dt: float) -> Quat:
         s = self._state
         q_delta = qm.from_rotvec(gyr[0] * dt, gyr[1] * dt, gyr[2] * dt)  # the paper's q_delta
@@ -87,18 +79,14 @@ def tilt_correction(q: Quat, acc: Vec, fraction: float) -> Quat:
     Step 1: the accelerometer in the world frame, ``q acc q^-1``; step 2: its
     direction ``v``; step 3: ``phi = arccos(v . UP)``, computed as
     ``atan2(|v x UP|, v . UP)`` (the same angle, accurate near 0); step 4: the axis
-    ``v_tilt = v x UP`` (normalised; any horizontal axis at ``phi = pi``).
+    ``v_tilt = v x UP`` (normalised; any horizontal axis at ``phi = pi``: EAST);
+    step 5: the rotation by ``fraction * phi`` about ``v_tilt``. Steps 2-4 and the
+    fraction are :func:`.qmath.tilt_to_up`, the rotation vector
+    ``fraction * phi * v_tilt``.
     """
     v = qm.rotate(q, acc)  # step 1 (step 2's normalisation cancels in atan2 and the axis)
-    axis = qm.cross(v, UP)  # step 4
-    s = qm.norm3(axis)
-    phi = math.atan2(s, qm.dot(v, UP))  # step 3
-    if s < _TINY * qm.norm3(v):
-        if phi < 0.5 * math.pi:
-            return qm.IDENTITY
-        axis, s = _HALF_TURN_AXIS, 1.0
-    k = fraction * phi / s
-    return qm.from_rotvec(axis[0] * k, axis[1] * k, axis[2] * k)
+    rx, ry, rz = qm.tilt_to_up(v, fraction)  # steps 2-4 with UP = +z, scaled for step 5
+    return qm.from_rotvec(rx, ry, rz)
 
 
 FILTER_CLASS = ComplementaryFilter

@@ -28,7 +28,8 @@ from dataclasses import dataclass
 from ..calibration import RestDetector, RestParams
 from ..lowpass import LowPass2
 from .base import Filter
-from .qmath import IDENTITY, Quat, Vec, from_rotvec, mul, normalize, rotate, rotate_inverse
+from .qmath import (IDENTITY, Quat, Vec, about_z, from_rotvec, integrate, mul, normalize, rotate,
+                    rotate_inverse, tilt_to_up)
 
 GRAVITY = 9.81
 
@@ -78,9 +79,6 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
     Params = DefaultParams
     State = DefaultState
 
-    def _initial_state(self) -> DefaultState:
-        return DefaultState()
-
     def _design(self, dt: float) -> None:
         s, p = self._state, self.params
         s.dt = dt
@@ -99,8 +97,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
             self._detect_rest(gyr, acc, dt)
         # 1. Strapdown integration of the bias-corrected rate (VQF sec. 3.1).
         b = s.bias
-        s.q_gyr = normalize(mul(s.q_gyr, from_rotvec((gyr[0] - b[0]) * dt, (gyr[1] - b[1]) * dt,
-                                                     (gyr[2] - b[2]) * dt)))
+        s.q_gyr = normalize(integrate(s.q_gyr, (gyr[0] - b[0], gyr[1] - b[1], gyr[2] - b[2]), dt))
         # 2. Inclination from the accelerometer low-passed in frame I (VQF sec. 3.2).
         if acc is not None:
             self._correct_inclination(acc, dt)
@@ -108,8 +105,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         # 3. Heading from the magnetometer, with disturbance rejection (VQF sec. 3.4).
         if mag is not None:
             self._correct_heading(q6, mag, dt)
-        half = 0.5 * s.heading
-        s.q = normalize(mul((math.cos(half), 0.0, 0.0, math.sin(half)), q6))
+        s.q = normalize(mul(about_z(s.heading), q6))
         return s.q
 
     # ------------------------------------------------------------ rest and bias
@@ -136,14 +132,11 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         ax, ay, az = rotate(s.q_inc, a_i)
         n = math.sqrt(ax * ax + ay * ay + az * az)
         if n < 1e-6:
-            return
-        ax, ay, az = ax / n, ay / n, az / n
-        # The rotation taking the filtered direction to vertical: about (ay, -ax, 0) by acos(az).
-        angle = math.acos(max(-1.0, min(1.0, az)))
-        h = math.sqrt(ax * ax + ay * ay)
-        if h < 1e-12:
-            return
-        rx, ry = ay / h * angle, -ax / h * angle
+            return  # no gravity yet
+        # The rotation taking the filtered direction to vertical: about (ay, -ax, 0) by
+        # acos(az / n) (computed as atan2(|a_xy|, a_z), the same angle; a half-turn
+        # about east when it points straight down).
+        rx, ry, _ = tilt_to_up((ax, ay, az))
         s.q_inc = normalize(mul(from_rotvec(rx, ry, 0.0), s.q_inc))
         if not self.flags.rest and s.t > p.startup_t:
             self._learn_bias_in_motion(rx / dt, ry / dt, dt)

@@ -48,10 +48,9 @@ from . import qmath as qm
 from .base import Filter
 from .qmath import Quat, Vec
 
-UP: Vec = (0.0, 0.0, 1.0)  # A_int of eq. 5: the specific force at rest, world frame
-NORTH: Vec = (0.0, 1.0, 0.0)  # M_int of eq. 10: the field's horizontal direction, world frame (ENU)
+UP: Vec = qm.UP  # A_int of eq. 5: the specific force at rest, world frame
+NORTH: Vec = qm.NORTH  # M_int of eq. 10: the field's horizontal direction, world frame (ENU)
 _ZERO: Vec = (0.0, 0.0, 0.0)
-_TINY = 1e-12
 
 
 @dataclass
@@ -87,22 +86,21 @@ class GravMagFilter(Filter[GravMagParams, GravMagState]):
     Params = GravMagParams
     State = GravMagState
 
-    def _initial_state(self) -> GravMagState:
-        return GravMagState()
-
     def _step(self, gyr: Vec, acc: Vec | None, mag: Vec | None, dt: float) -> Quat:
         s, p = self._state, self.params
         omega = self._unbiased(gyr, dt)
-        q_g = qm.mul(s.q, qm.from_rotvec(omega[0] * dt, omega[1] * dt, omega[2] * dt))  # eqs. 3-4
+        q_g = qm.integrate(s.q, omega, dt)  # eqs. 3-4: q_dot = 1/2 q (x) omega_B over dt
         if acc is not None and not s.levelled:
             q_g, s.levelled = corrected(q_g, acc, UP, 1.0), True
         if mag is not None and s.levelled and not s.headed:
-            q_g, s.headed = facing_north(q_g, mag), True
+            q_g, s.headed = qm.align_heading(q_g, mag, NORTH), True  # the field's horizontal part north
         q_ga = corrected(q_g, acc, UP, _gain(dt, p.tau_acc)) if acc is not None else q_g  # eqs. 5-9
         q_gm = q_g
         if mag is not None and s.headed:
             q_gm = corrected(q_g, north_part(q_g, mag), NORTH, _gain(dt, p.tau_mag))  # eqs. 10-14
-        s.q = qm.normalize(slerp(q_gm, q_ga, self._stillness(omega, acc)))  # eq. 15
+        # eqs. 15-16: (q_GM sin((1 - alpha) W) + q_GA sin(alpha W)) / sin(W), cos(W) = q_GM . q_GA,
+        # along the shorter arc and linear where W is tiny
+        s.q = qm.normalize(qm.slerp(q_gm, q_ga, self._stillness(omega, acc)))
         return s.q
 
     def _unbiased(self, gyr: Vec, dt: float) -> Vec:
@@ -144,23 +142,15 @@ def corrected(q_g: Quat, measured: Vec, reference: Vec, gain: float) -> Quat:
     """``q_G (x) Delta q^gain`` (seed 002, eqs. 5-9 for gravity, 10-14 for north).
 
     The reference (``A_int`` or ``M_int``, world frame) seen from ``q_G`` is
-    ``q_G* (x) ref (x) q_G`` (eqs. 5, 10); ``Delta q`` rotates the measurement
-    onto it (eqs. 6-8, 11-13); post-multiplying it corrects ``q_G`` (eqs. 9, 14).
+    ``q_G* (x) ref (x) q_G`` (eqs. 5, 10); ``Delta q = H(a0 x a(q_G), |a0||a(q_G)| +
+    a0 . a(q_G))`` normalised rotates the measurement onto it (eqs. 6-8, 11-13:
+    :func:`.qmath.between`, which takes a half-turn about an axis perpendicular to
+    the measurement where the two are opposite and the paper's formula is 0/0);
+    post-multiplying it, raised to the gain (:func:`.qmath.power`), corrects ``q_G``
+    (eqs. 9, 14).
     """
     predicted = qm.rotate_inverse(q_g, reference)  # eq. 5 / 10
-    return qm.mul(q_g, _power(between(measured, predicted), gain))  # eq. 9 / 14
-
-
-def between(u: Vec, v: Vec) -> Quat:
-    """``H(u x v, |u||v| + u . v)`` normalised: the shortest rotation taking u onto v
-    (seed 002, eqs. 6-8 / 11-13); a half-turn about an axis perpendicular to u
-    where they are opposite (the paper's formula is 0/0 there)."""
-    c = qm.cross(u, v)
-    nu, nv = qm.norm3(u), qm.norm3(v)
-    w = nu * nv + qm.dot(u, v)  # eq. 8 / 13
-    if w <= _TINY * (1.0 + nu * nv):
-        c, w = qm.cross(u, (1.0, 0.0, 0.0) if abs(u[0]) < 0.6 * nu else (0.0, 1.0, 0.0)), 0.0
-    return qm.normalize((w, c[0], c[1], c[2]))
+    return qm.mul(q_g, qm.power(qm.between(measured, predicted), gain))  # eqs. 6-8 and 9 / 11-13 and 14
 
 
 def north_part(q_g: Quat, mag: Vec) -> Vec:
@@ -169,37 +159,6 @@ def north_part(q_g: Quat, mag: Vec) -> Vec:
     u = qm.rotate_inverse(q_g, UP)
     d = qm.dot(mag, u)
     return (mag[0] - d * u[0], mag[1] - d * u[1], mag[2] - d * u[2])
-
-
-def facing_north(q: Quat, mag: Vec) -> Quat:
-    """``q`` turned about world z so that the field's horizontal part points along +y."""
-    m = qm.rotate(q, mag)
-    yaw = math.atan2(m[0], m[1])  # rotating by yaw about z takes (m_x, m_y) onto (0, |m_xy|)
-    return qm.mul(qm.from_rotvec(0.0, 0.0, yaw), q)
-
-
-def slerp(q_gm: Quat, q_ga: Quat, alpha: float) -> Quat:
-    """Eqs. 15-16 of seed 002: ``(q_GM sin((1 - alpha) W) + q_GA sin(alpha W)) / sin(W)``,
-    ``cos(W) = q_GM . q_GA``; along the shorter arc, and linear where W is tiny."""
-    cos_w = sum(a * b for a, b in zip(q_gm, q_ga))  # eq. 16
-    sign = 1.0 if cos_w >= 0.0 else -1.0  # q and -q are one rotation: take the shorter arc
-    omega = math.acos(min(1.0, sign * cos_w))
-    if omega < 1e-6:
-        a, b = 1.0 - alpha, alpha
-    else:
-        a, b = math.sin((1.0 - alpha) * omega) / math.sin(omega), math.sin(alpha * omega) / math.sin(omega)
-    b *= sign
-    return (a * q_gm[0] + b * q_ga[0], a * q_gm[1] + b * q_ga[1],
-            a * q_gm[2] + b * q_ga[2], a * q_gm[3] + b * q_ga[3])
-
-
-def _power(dq: Quat, k: float) -> Quat:
-    """``dq^k`` for unit ``dq`` with w >= 0: the same axis, k times the angle."""
-    s = qm.norm3((dq[1], dq[2], dq[3]))
-    if k == 1.0 or s < _TINY:
-        return dq
-    scale = 2.0 * k * math.atan2(s, dq[0]) / s
-    return qm.from_rotvec(dq[1] * scale, dq[2] * scale, dq[3] * scale)
 
 
 def _gain(dt: float, tau: float) -> float:

@@ -42,8 +42,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .madgwick import Madgwick, MadgwickParams, heading_reference, unit
-from .qmath import Quat, Vec
+from .madgwick import Madgwick, MadgwickParams, heading_reference
+from .qmath import Quat, Vec, unit
 
 
 @dataclass

@@ -36,16 +36,17 @@ before specialising them): with ``q = (w, u)``,
 
 which, for ``d = (0, 0, 1)``, expands to Madgwick's gravity Jacobian term by term
 (the tests check it against finite differences). The reusable pieces
-(:func:`gradient`, :func:`descend`, :func:`heading_reference`, :func:`level`,
-:func:`align_heading`) serve
-:mod:`.hinge` and :mod:`.switching` too.
+(:func:`gradient`, :func:`descend`, :func:`heading_reference`, :func:`level`)
+serve :mod:`.hinge` and :mod:`.switching` too; the vector and quaternion helpers
+(:func:`.qmath.unit`, :func:`.qmath.add`, :func:`.qmath.between`,
+:func:`.qmath.align_heading`) are shared with the other filters.
 
 Fast start: on the first sample with a usable accelerometer the estimate is set
 straight from the measurement, not converged to at beta rad/s: the inclination
 from gravity (:func:`level`) and, with a magnetometer, the heading that points the
-horizontal field north (:func:`align_heading`). Without a magnetometer the heading
-starts at the shortest rotation from the sensor frame (arbitrary, as in any 6D
-filter).
+horizontal field north (:func:`.qmath.align_heading`). Without a magnetometer the
+heading starts at the shortest rotation from the sensor frame (arbitrary, as in
+any 6D filter).
 
 Timing: as published, the gradient is taken at the previous estimate against the
 current measurement, so during a turn the correction pulls towards a vector up to
@@ -66,8 +67,8 @@ from . import qmath as Q
 from .base import Filter
 from .qmath import Quat, Vec
 
-UP: Vec = (0.0, 0.0, 1.0)
-NORTH: Vec = (0.0, 1.0, 0.0)
+UP: Vec = Q.UP  # the gravity reference, ENU (module docstring)
+NORTH: Vec = Q.NORTH  # the horizontal direction of the field reference b
 ZERO_QUAT: Quat = (0.0, 0.0, 0.0, 0.0)
 
 
@@ -96,11 +97,6 @@ def gradient(q: Quat, ref: Vec, meas: Vec) -> Quat:
             2.0 * (w * (fx * dy - fy * dx) + ud * fz + uf * dz - fd2 * uz))
 
 
-def add(p: Quat, q: Quat) -> Quat:
-    """Component sum p + q (sums the gradients of stacked objectives, [M10] sec. 3.2)."""
-    return (p[0] + q[0], p[1] + q[1], p[2] + q[2], p[3] + q[3])
-
-
 def descend(q: Quat, gyr: Vec, grad: Quat, beta: float, dt: float) -> Quat:
     """One filter step: seed 003 eq. (18) and [M10] sec. 3.3, then eqs. (15), (19).
 
@@ -119,13 +115,6 @@ def descend(q: Quat, gyr: Vec, grad: Quat, beta: float, dt: float) -> Quat:
         s = beta / n
         dw, dx, dy, dz = dw - s * grad[0], dx - s * grad[1], dy - s * grad[2], dz - s * grad[3]
     return Q.normalize((w + dw * dt, x + dx * dt, y + dy * dt, z + dz * dt))
-
-
-def unit(v: Vec) -> Vec:
-    """v / |v| for a finite, non-zero v (as base.Filter.update passes); hypot neither
-    overflows nor underflows, so 1e-200 and 1e300 scale to unit length too."""
-    n = math.hypot(v[0], v[1], v[2])
-    return (v[0] / n, v[1] / n, v[2] / n)
 
 
 def heading_reference(q: Quat, meas_unit: Vec, toward: Vec) -> Vec:
@@ -149,26 +138,11 @@ def level(q: Quat, acc: Vec) -> Quat:
     The accelerometer at rest gives the inclination only (seed 003 sec. 2.2.2: the
     slow-motion estimate from gravity); the turn is about a horizontal axis, so
     the heading of ``q`` is kept. ``level(IDENTITY, acc)`` is the pure inclination
-    estimate.
+    estimate. The shortest arc from ``v = q acc q*`` to up is
+    ``(1 + v . up, v x up)`` normalised for unit v (:func:`.qmath.between`);
+    upside down it is a half-turn about east.
     """
-    vx, vy, vz = unit(Q.rotate(q, acc))
-    # shortest arc v -> up: (1 + v . up, v x up), normalised
-    if vz < -1.0 + 1e-12:
-        return Q.mul((0.0, 1.0, 0.0, 0.0), q)  # upside down: half turn about east
-    return Q.normalize(Q.mul((1.0 + vz, vy, -vx, 0.0), q))
-
-
-def align_heading(q: Quat, vec_s: Vec, ref_w: Vec) -> Quat:
-    """``q`` turned about world up so that ``q vec_s q*`` and ``ref_w`` share a horizontal direction.
-
-    Used for the fast start (the field ``vec_s`` onto north, or a hinge axis onto
-    its world direction); leaves ``q`` unchanged where either is vertical.
-    """
-    hx, hy, _ = Q.rotate(q, vec_s)
-    if hx * hx + hy * hy < 1e-12 or ref_w[0] * ref_w[0] + ref_w[1] * ref_w[1] < 1e-12:
-        return q
-    turn = math.atan2(ref_w[1], ref_w[0]) - math.atan2(hy, hx)
-    return Q.mul((math.cos(0.5 * turn), 0.0, 0.0, math.sin(0.5 * turn)), q)
+    return Q.normalize(Q.mul(Q.between(Q.rotate(q, acc), UP, Q.EAST), q))
 
 
 @dataclass
@@ -204,14 +178,11 @@ class Madgwick(Filter[MadgwickParams, MadgwickState]):
     Params = MadgwickParams
     State = MadgwickState
 
-    def _initial_state(self) -> MadgwickState:
-        return MadgwickState()
-
     def _second_pair(self, q: Quat, mag: Vec | None) -> tuple[Vec, Vec] | None:
         """(world reference, sensor measurement) of the second vector: the Earth field."""
         if mag is None:
             return None
-        m = unit(mag)
+        m = Q.unit(mag)
         return heading_reference(q, m, NORTH), m
 
     def _step(self, gyr: Vec, acc: Vec | None, mag: Vec | None, dt: float) -> Quat:
@@ -219,14 +190,14 @@ class Madgwick(Filter[MadgwickParams, MadgwickState]):
         if not s.initialised and acc is not None:
             s.q = level(Q.IDENTITY, acc)
             pair = self._second_pair(s.q, mag)
-            if pair is not None:
-                s.q = align_heading(s.q, pair[1], pair[0])
+            if pair is not None:  # the second vector's horizontal part onto its reference's
+                s.q = Q.align_heading(s.q, pair[1], pair[0])
             s.initialised = True
             return s.q
-        grad = gradient(s.q, UP, unit(acc)) if acc is not None else ZERO_QUAT
+        grad = gradient(s.q, UP, Q.unit(acc)) if acc is not None else ZERO_QUAT
         pair = self._second_pair(s.q, mag)
-        if pair is not None:
-            grad = add(grad, gradient(s.q, *pair))
+        if pair is not None:  # stacked objectives: the gradients add ([M10] sec. 3.2)
+            grad = Q.add(grad, gradient(s.q, *pair))
         s.q = descend(s.q, gyr, grad, self.params.beta, dt)
         return s.q
 

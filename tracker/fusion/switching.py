@@ -119,13 +119,10 @@ class Switching(Filter[SwitchingParams, SwitchingState]):
     Params = SwitchingParams
     State = SwitchingState
 
-    def _initial_state(self) -> SwitchingState:
-        return SwitchingState()
-
     def _step(self, gyr: Vec, acc: Vec | None, mag: Vec | None, dt: float) -> Quat:
         s, p = self._state, self.params
         self.flags.mag_ignored = True
-        q_int = Q.mul(s.q, Q.from_rotvec(gyr[0] * dt, gyr[1] * dt, gyr[2] * dt))
+        q_int = Q.integrate(s.q, gyr, dt)  # fast-mode estimate (sec. 2.2.3), exact for a held rate
         err_int = s.error + dt * p.gyro_error  # eq. (8), step 2
         if max(abs(gyr[0]), abs(gyr[1]), abs(gyr[2])) >= GYR_SATURATION:
             err_int = math.pi  # the true rate is beyond full scale: the integral is unbounded
