@@ -254,12 +254,15 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
-    from .evaluate import evaluate, filter_names, find_trials, markdown_table, write_readme_table
+    from .evaluate import (evaluate, filter_names, find_trials, markdown_table, uses_magnetometer,
+                           write_readme_table)
     paths = find_trials(args.dataset)
     names = filter_names(args.filter)
     dofs = [args.dof] if args.dof else [6, 9]
+    total = len(paths) * sum(1 for d in dofs for n in names if d == 6 or uses_magnetometer(n))
+    if total == 0:
+        raise UsageError(f"{args.filter} ignores the magnetometer by design: evaluate it with --dof 6")
     results = []
-    total = len(paths) * len(names) * len(dofs)
     for r in evaluate(paths, names, dofs):
         results.append(r)
         print(f"[{len(results)}/{total}] {r['trial']} {r['filter']} {r['dof']}D: "

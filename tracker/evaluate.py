@@ -138,6 +138,11 @@ def run_filter(name: str, trial: Trial, dof: int) -> np.ndarray:
     return make(name).run(trial.gyr, trial.acc, mag, trial.rate)
 
 
+def uses_magnetometer(name: str) -> bool:
+    """Whether a 9D run means anything for this filter (peers all use the magnetometer)."""
+    return name in PEERS or make(name).uses_magnetometer
+
+
 def available_peers() -> list[str]:
     """The peers whose packages are installed (the optional ``compare`` extra)."""
     found = []
@@ -206,11 +211,14 @@ def filter_names(choice: str) -> list[str]:
 
 
 def evaluate(paths: list[Path], names: list[str], dofs: list[int]) -> Iterator[dict]:
-    """One result per trial, filter and DoF: RMSE of total, heading and inclination."""
+    """One result per trial, filter and DoF: RMSE of total, heading and inclination.
+
+    Filters that ignore the magnetometer by design are scored in 6D only.
+    """
     for path in paths:
         trial = load_trial(path)
         for dof in dofs:
-            for name in names:
+            for name in (n for n in names if dof == 6 or uses_magnetometer(n)):
                 errors = rmse(run_filter(name, trial, dof), trial, dof)
                 yield {"trial": trial.name, "filter": name, "dof": dof,
                        **{k: round(v, 4) for k, v in errors.items()}}

@@ -61,6 +61,7 @@ class Filter(ABC, Generic[P, S]):
     """A streaming orientation filter; subclasses implement :meth:`_step`."""
 
     name: ClassVar[str]
+    uses_magnetometer: ClassVar[bool] = True  # False: the filter ignores ``mag`` by design
     Params: ClassVar[type]
     State: ClassVar[type]
 

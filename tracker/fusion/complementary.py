@@ -58,6 +58,7 @@ class ComplementaryFilter(Filter[ComplementaryParams, ComplementaryState]):
     """Seed 000, sec. 3: gyroscope integration with a partial tilt correction."""
 
     name = "complementary"
+    uses_magnetometer = False
     Params = ComplementaryParams
     State = ComplementaryState
 

@@ -77,6 +77,7 @@ class Hinge(Madgwick):
     """Gravity plus the flexion-plane normal: full orientation without a magnetometer."""
 
     name = "hinge"
+    uses_magnetometer = False
     Params = HingeParams
 
     def __init__(self, params: HingeParams | None = None, **overrides: object) -> None:

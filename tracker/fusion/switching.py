@@ -116,6 +116,7 @@ class Switching(Filter[SwitchingParams, SwitchingState]):
     """Gravity in slow motion, gyro integration in fast motion, by the paper's error bounds."""
 
     name = "switching"
+    uses_magnetometer = False
     Params = SwitchingParams
     State = SwitchingState
 

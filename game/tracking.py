@@ -1,0 +1,82 @@
+"""From board samples to ArmPose: calibration, the default filter and the flex sensor.
+
+This is the tracker side of the game's input (ARCHITECTURE.md: protocol ->
+calibration / flex -> fusion -> ArmPose). Raw samples go through the board's
+calibration (gyro bias, accelerometer), the ``default`` filter and the flex
+tracker; fused samples (the board's own estimate, the paper's mode) pass
+straight through. The "hold still" step of the wearing calibration gives the
+filter its gyro bias here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from tracker import protocol as P
+from tracker.calibration import BiasResult, BoardCalibration, startup_bias
+from tracker.flex import FlexCalibration, FlexTracker
+from tracker.fusion.default import DefaultFilter
+
+from .pose import ArmPose
+
+MAX_GAP_S = 0.5  # a longer gap in device time (link loss) restarts the time base
+
+
+@dataclass
+class Tracking:
+    """Turns a stream of board samples into ArmPoses."""
+
+    use_magnetometer: bool = True
+    board: BoardCalibration = field(default_factory=BoardCalibration)
+    flex_calibration: FlexCalibration | None = None
+    filter: DefaultFilter = field(default_factory=DefaultFilter)
+    flex: FlexTracker = field(init=False)
+    _last_t: float | None = None
+    _dt: float = 0.005
+
+    def __post_init__(self) -> None:
+        self.flex = FlexTracker(self.flex_calibration)
+
+    def reset(self) -> None:
+        """Start over (a new board, or the board restarted)."""
+        self.filter.reset()
+        self.flex.reset()
+        self._last_t = None
+
+    def feed(self, sample: P.RawSample | P.FusedSample) -> ArmPose:
+        """The arm pose after one sample."""
+        if isinstance(sample, P.FusedSample):
+            return ArmPose(tuple(sample.q), sample.flex_deg, sample.t)
+        dt = self._step(sample.t)
+        corrected = self.board.apply(sample)
+        mag = corrected.mag if self.use_magnetometer and sample.mag is not None else None
+        q = self.filter.update(tuple(corrected.gyr), tuple(corrected.acc),
+                               None if mag is None else tuple(mag), dt)
+        flex = self.flex.update(sample.flex_adc, sample.t)
+        return ArmPose(q, flex.deg, sample.t)
+
+    def _step(self, t: float) -> float:
+        """The time since the last sample; the last good one after a gap or a restart."""
+        if self._last_t is not None and 0.0 < t - self._last_t < MAX_GAP_S:
+            self._dt = t - self._last_t
+        self._last_t = t
+        return self._dt
+
+    def hold_still(self, samples: Sequence[P.RawSample]) -> BiasResult:
+        """"Hold still": the gyro bias over these samples, given to the filter if they were still."""
+        raw = [s for s in samples if isinstance(s, P.RawSample)]
+        if not raw:
+            return BiasResult(False, "no raw samples arrived (is the board streaming raw data?)",
+                              np.zeros(3), np.zeros(3), 0.0)
+        t = np.array([s.t for s in raw])
+        gyr = np.array([s.gyr for s in raw]) - self.board.gyro_bias
+        acc = np.array([s.acc for s in raw])
+        result = startup_bias(t, gyr, acc)
+        if result.ok:
+            state = self.filter.get_state()
+            state.bias = tuple(float(b) for b in result.bias)
+            self.filter.set_state(state)
+        return result

@@ -1,0 +1,146 @@
+"""Wearing calibration: where the board sits on the arm, and where "forward" is.
+
+Seed 000 sec. 6 names the weaknesses this answers: the board worn at an
+unknown angle ("wearing offset") and the heading drifting away. The paper
+only asks the player to hold the arm straight down and picks initRotation to
+match (sec. 4); here that pose also finds the arm's long axis in the sensor
+frame, an optional second pose (arm straight forward) finds the rotation
+about it, and a recenter turns "where I point now" into forward.
+
+The arm's long axis: held straight down, the upper arm lies along world -z,
+so in the sensor frame it is ``conj(q_down) * (0, 0, -1) * q_down``. Raising
+the straight arm forward turns it a quarter turn about the shoulder's
+left-right axis, the bone's x axis; that rotation, seen in the sensor frame,
+is ``conj(q_down) * q_forward``, and its axis is the bone's x axis in sensor
+coordinates. The two axes give the bone frame in the sensor frame, q_SB.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Sequence
+
+import numpy as np
+
+from tracker import quat as Q
+
+from .avatar import Avatar, Wearing
+from .pose import ArmPose, Quat
+
+STILL_DEG = 4.0  # orientations during a pose must stay this close to their mean
+FORWARD_RANGE_DEG = (60.0, 120.0)  # how far "arm straight forward" may be from "arm down"
+
+
+@dataclass(frozen=True)
+class CalibrationResult:
+    """The outcome of a calibration step: a new wearing, or why not."""
+
+    ok: bool
+    message: str
+    wearing: Wearing
+
+
+def mean_orientation(quats: Sequence[Quat]) -> np.ndarray:
+    """The chordal mean of nearby orientations (signs aligned to the first)."""
+    q = np.asarray(quats, dtype=float)
+    q = q * np.where(q @ q[0] < 0, -1.0, 1.0)[:, None]
+    return Q.normalize(q.mean(axis=0))
+
+
+def _spread_deg(quats: Sequence[Quat], mean: np.ndarray) -> float:
+    return float(np.degrees(Q.angle_between(np.asarray(quats, dtype=float), mean).max()))
+
+
+def _still(poses: Sequence[ArmPose], what: str) -> tuple[np.ndarray | None, str]:
+    if len(poses) < 2:
+        return None, f"{what}: no samples arrived (is the board streaming?)"
+    quats = [p.q_upper for p in poses]
+    mean = mean_orientation(quats)
+    moved = _spread_deg(quats, mean)
+    if moved > STILL_DEG:
+        return None, (f"{what}: the arm moved {moved:.1f} degrees; hold it still "
+                      f"(within {STILL_DEG:.0f} degrees) and try again")
+    return mean, ""
+
+
+def _mount_from_axes(long_axis_s: np.ndarray, x_hint_s: np.ndarray) -> np.ndarray:
+    """q_SB from the arm's downward long axis and a hint for the bone's x axis (sensor frame)."""
+    z = -long_axis_s / np.linalg.norm(long_axis_s)
+    x = x_hint_s - np.dot(x_hint_s, z) * z
+    if np.linalg.norm(x) < 1e-6:
+        raise ValueError("the hint for the bone's x axis is parallel to the arm")
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    return Q.from_matrix(np.stack([x, y, z], axis=1))
+
+
+def _init_for_rest(avatar: Avatar, q_down: np.ndarray, mount: np.ndarray) -> np.ndarray:
+    """initRotation that makes the avatar's arm hang at rest for this reading (seed 000 sec. 4).
+
+    Rest means the upper arm's world rotation equals its parent's (local
+    identity): init * parent * q_down * mount = parent.
+    """
+    avatar.forward_kinematics()
+    parent = avatar.world_rot[f"{avatar.body.side}_shoulder"]
+    return Q.multiply(parent, Q.conjugate(Q.multiply(parent, Q.multiply(q_down, mount))))
+
+
+def arm_down(avatar: Avatar, poses: Sequence[ArmPose]) -> CalibrationResult:
+    """"Hold your arm straight down": the arm's long axis and initRotation.
+
+    The rotation about the arm is kept from the current mounting (the ideal
+    board's, or a previous two-pose calibration's).
+    """
+    q_down, problem = _still(poses, "arm down")
+    if q_down is None:
+        return CalibrationResult(False, problem, avatar.wearing)
+    long_axis = Q.rotate(Q.conjugate(q_down), (0.0, 0.0, -1.0))
+    x_hint = Q.rotate(avatar.wearing.mount, (1.0, 0.0, 0.0))
+    try:
+        mount = _mount_from_axes(long_axis, x_hint)
+    except ValueError:  # the old mounting's x lies along the arm: start from the sensor's y
+        mount = _mount_from_axes(long_axis, Q.rotate(Q.conjugate(q_down), (0.0, 1.0, 0.0)))
+    init = _init_for_rest(avatar, q_down, mount)
+    wearing = Wearing(tuple(mount), tuple(init))
+    return CalibrationResult(True, "arm down: calibrated", wearing)
+
+
+def arm_down_then_forward(avatar: Avatar, down: Sequence[ArmPose],
+                          forward: Sequence[ArmPose]) -> CalibrationResult:
+    """Two poses: the full mounting (about and across the arm), initRotation and forward."""
+    q_down, problem = _still(down, "arm down")
+    if q_down is None:
+        return CalibrationResult(False, problem, avatar.wearing)
+    q_fwd, problem = _still(forward, "arm forward")
+    if q_fwd is None:
+        return CalibrationResult(False, problem, avatar.wearing)
+    turn = Q.multiply(Q.conjugate(q_down), q_fwd)  # the raise, in the sensor frame at "down"
+    axis, angle = Q.to_axis_angle(turn)
+    low, high = FORWARD_RANGE_DEG
+    if not low <= math.degrees(angle) <= high:
+        return CalibrationResult(False, (
+            f"arm forward: the arm turned {math.degrees(angle):.0f} degrees from hanging down; raise "
+            "it straight forward to shoulder height (90 degrees) and hold it there"), avatar.wearing)
+    long_axis = Q.rotate(Q.conjugate(q_down), (0.0, 0.0, -1.0))
+    mount = _mount_from_axes(long_axis, axis)
+    wearing = Wearing(tuple(mount), tuple(_init_for_rest(avatar, q_down, mount)))
+    # The raise was straight forward, so the forward pose defines "forward".
+    centred = recenter(replace(avatar, wearing=wearing), ArmPose(tuple(q_fwd), 0.0, forward[-1].t))
+    return CalibrationResult(True, "arm down and forward: calibrated", centred)
+
+
+def recenter(avatar: Avatar, pose: ArmPose) -> Wearing:
+    """"Forward is where I point now": turn initRotation about the vertical.
+
+    The avatar's forward is its shoulder's +y. The arm's horizontal heading
+    now is turned onto it; pointing straight up or down leaves heading as is.
+    """
+    upper = avatar.upper_arm_rotation(pose.q_upper)
+    pointing = Q.rotate(upper, (0.0, 0.0, -1.0))
+    forward = Q.rotate(avatar.world_rot[f"{avatar.body.side}_shoulder"], (0.0, 1.0, 0.0))
+    if math.hypot(pointing[0], pointing[1]) < 0.2:
+        return avatar.wearing
+    turn = math.atan2(forward[1], forward[0]) - math.atan2(pointing[1], pointing[0])
+    init = Q.multiply(Q.from_axis_angle((0.0, 0.0, 1.0), turn), avatar.wearing.init)
+    return Wearing(avatar.wearing.mount, tuple(init))
