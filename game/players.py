@@ -1,0 +1,119 @@
+"""Per-player profiles: arm side and lengths, how the board is worn, the flex calibration.
+
+Seed 000 sec. 6 notes that every person's flex response and wearing differ;
+a profile keeps them per player so a calibration is done once. Profiles are
+JSON files named after the player, written atomically, in
+``$XDG_CONFIG_HOME/energyball/players`` (``~/.config/energyball/players``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from tracker.atomic import atomic_write
+from tracker.flex import FlexCalibration, FlexCalibrationError
+
+from .avatar import BodySettings, Wearing
+
+FORMAT = "energyball-player"
+VERSION = 1
+_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9 _.-]{0,39}$")
+
+
+class ProfileError(Exception):
+    """A profile that cannot be loaded or saved, worded for the user."""
+
+
+@dataclass(frozen=True)
+class Player:
+    """One player's settings."""
+
+    name: str
+    body: BodySettings = field(default_factory=BodySettings)
+    wearing: Wearing = field(default_factory=Wearing)
+    flex: FlexCalibration | None = None
+
+    def __post_init__(self) -> None:
+        if not _NAME.match(self.name):
+            raise ProfileError(f"a player name is 1-40 letters, digits, spaces, '.', '_' or '-', "
+                               f"starting with a letter or digit: {self.name!r} is not")
+
+    def to_json(self) -> dict:
+        return {"format": FORMAT, "version": VERSION, "name": self.name, "body": asdict(self.body),
+                "wearing": {"mount": list(self.wearing.mount), "init": list(self.wearing.init)},
+                "flex": self.flex.to_json() if self.flex else None}
+
+    @classmethod
+    def from_json(cls, d: object) -> "Player":
+        """Inverse of :meth:`to_json`; a ProfileError naming what is wrong otherwise."""
+        if not isinstance(d, dict) or d.get("format") != FORMAT:
+            raise ProfileError("not an EnergyBall player profile")
+        if d.get("version") != VERSION:
+            raise ProfileError(f"profile version {d.get('version')!r} is not {VERSION}")
+        try:
+            wearing = Wearing(_quat(d["wearing"]["mount"]), _quat(d["wearing"]["init"]))
+            flex = FlexCalibration.from_json(d["flex"]) if d.get("flex") else None
+            return cls(d["name"], BodySettings(**d["body"]), wearing, flex)
+        except (KeyError, TypeError, ValueError, FlexCalibrationError) as e:
+            raise ProfileError(f"a field is missing or wrong ({e})") from None
+
+
+def _quat(values: object) -> tuple[float, float, float, float]:
+    q = tuple(float(v) for v in values)  # type: ignore[union-attr]
+    if len(q) != 4 or not 0.99 < sum(c * c for c in q) < 1.01:
+        raise ValueError(f"{values!r} is not a unit quaternion")
+    return q  # type: ignore[return-value]
+
+
+def players_dir() -> Path:
+    """Where profiles live."""
+    base = os.environ.get("XDG_CONFIG_HOME") or Path.home() / ".config"
+    return Path(base) / "energyball" / "players"
+
+
+def _path(name: str, directory: Path | None) -> Path:
+    return (directory or players_dir()) / f"{name}.json"
+
+
+def save(player: Player, directory: Path | None = None) -> Path:
+    """Write a profile atomically; returns its path."""
+    path = _path(player.name, directory)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write(path, json.dumps(player.to_json(), indent=1))
+    except OSError as e:
+        raise ProfileError(f"cannot save the profile to {path}: {e.strerror or e}") from None
+    return path
+
+
+def load(name: str, directory: Path | None = None) -> Player:
+    """The named player's profile."""
+    path = _path(name, directory)
+    try:
+        data = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise ProfileError(f"no profile named {name!r} (looked for {path})") from None
+    except (OSError, ValueError) as e:
+        raise ProfileError(f"{path} is damaged: {e}") from None
+    try:
+        return Player.from_json(data)
+    except ProfileError as e:
+        raise ProfileError(f"{path}: {e}") from None
+
+
+def load_or_new(name: str, directory: Path | None = None) -> tuple[Player, str]:
+    """The named profile, or a new one with defaults and a notice saying why."""
+    try:
+        return load(name, directory), f"loaded player {name!r}"
+    except ProfileError as e:
+        return Player(name), f"{e}; starting with defaults"
+
+
+def names(directory: Path | None = None) -> list[str]:
+    """Every saved player's name."""
+    folder = directory or players_dir()
+    return sorted(p.stem for p in folder.glob("*.json")) if folder.is_dir() else []
