@@ -1,0 +1,273 @@
+"""The simulated player: minimum-jerk moves, launch truth, idle safety, profiles, the simulator."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from game.avatar import Avatar
+from game.motion_model import (
+    LAUNCH_THRESHOLD_DEG, PlayerProfile, Script, direction, minimum_jerk, minimum_jerk_velocity,
+    session)
+from game.pose import ArmPose
+from tracker import quat as Q
+from tracker.sim import Simulator, arm_chain, mpu9250
+
+STILL = PlayerProfile(tremor_deg=0.0)
+
+
+def angle_deg(a, b):
+    return np.degrees(np.arccos(np.clip(np.sum(np.asarray(a) * np.asarray(b), axis=-1), -1, 1)))
+
+
+# ------------------------------------------------------------ minimum jerk
+
+
+def test_minimum_jerk_profile():
+    assert minimum_jerk(0.0) == 0.0 and minimum_jerk(1.0) == 1.0
+    assert minimum_jerk(-1.0) == 0.0 and minimum_jerk(2.0) == 1.0  # held outside
+    assert minimum_jerk(0.5) == pytest.approx(0.5)
+    assert minimum_jerk_velocity(0.0) == 0.0 and minimum_jerk_velocity(1.0) == 0.0
+    tau = np.linspace(0, 1, 100001)
+    v = minimum_jerk_velocity(tau)
+    assert np.gradient(minimum_jerk(tau), tau)[1:-1] == pytest.approx(v[1:-1], abs=1e-6)
+    mean = 1.0  # the distance 1 over the duration 1
+    assert v.max() == pytest.approx(1.875 * mean) and tau[np.argmax(v)] == pytest.approx(0.5)
+    h = 1e-4  # acceleration vanishes at both ends too
+    assert abs(minimum_jerk(2 * h) - 2 * minimum_jerk(h)) / h**2 < 1e-2
+    assert abs(minimum_jerk(1 - 2 * h) - 2 * minimum_jerk(1 - h) + 1) / h**2 < 1e-2
+
+
+# ------------------------------------------------------------ launches
+
+
+@pytest.fixture(scope="module")
+def still_session():
+    return session(STILL, seed=3, gestures=6, idle_s=(2.0, 4.0))
+
+
+def test_launch_times_are_where_the_elbow_crosses_the_threshold(still_session):
+    s = still_session
+    assert len(s.launches) >= 6
+    for launch in s.launches:
+        assert s.flex_deg(launch.t_straight)[0] == pytest.approx(LAUNCH_THRESHOLD_DEG, abs=1e-6)
+        before, after = s.flex_deg([launch.t_straight - 1e-3, launch.t_straight + 1e-3])
+        assert before > LAUNCH_THRESHOLD_DEG > after
+        assert s.flex_deg(launch.t_straight_start)[0] >= 90.0
+        assert 0.04 < launch.t_straight - launch.t_straight_start < 0.25
+        assert launch.charge_time > 0.5
+    # every downward crossing inside a gesture is a recorded launch, and no other
+    for seg in (x for x in s.segments if x.kind == "gesture"):
+        t = np.arange(seg.t0, seg.t1, 1e-3)
+        f = s.flex_deg(t) - LAUNCH_THRESHOLD_DEG
+        crossings = t[1:][(f[:-1] >= 0) & (f[1:] < 0)]
+        recorded = [x.t_straight for x in s.launches if seg.t0 <= x.t_straight <= seg.t1]
+        assert crossings == pytest.approx(recorded, abs=1e-3)
+
+
+def test_the_arm_points_at_the_recorded_target_during_the_launch(still_session):
+    s = still_session
+    for launch in s.launches:
+        d = np.asarray(launch.direction_body)
+        assert np.linalg.norm(d) == pytest.approx(1.0)
+        t = np.linspace(launch.t_straight_start, launch.t_straight, 5)
+        assert angle_deg(s.pointing(t), d).max() < 1.0
+        elevation = math.degrees(math.acos(-d[2]))
+        azimuth = math.degrees(math.atan2(d[0], d[1]))
+        assert 60 <= elevation <= 120 and abs(azimuth) <= 60.0 + 1e-9
+
+
+def test_given_targets_are_hit_and_azimuth_is_positive_to_the_right():
+    script = Script(STILL, seed=5)
+    launches = script.gesture(targets=[(30.0, 90.0), (-20.0, 100.0)])
+    s = script.build()
+    assert [x.direction_body for x in launches] == pytest.approx(
+        [tuple(direction(30.0, 90.0)), tuple(direction(-20.0, 100.0))])
+    assert launches[0].direction_body[0] > 0 and launches[1].direction_body[0] < 0
+    for launch in launches:
+        assert angle_deg(s.pointing(launch.t_straight)[0], launch.direction_body) < 1e-6
+    assert s.elevation_deg(s.duration_s)[0] == pytest.approx(0.0, abs=1e-9)  # back down
+
+
+def test_tremor_stays_small_and_wobbles_the_aim():
+    s = session(PlayerProfile(tremor_deg=0.5), seed=3, gestures=3, idle_s=1.0)
+    for launch in s.launches:
+        t = np.linspace(launch.t_straight_start, launch.t_straight, 20)
+        err = angle_deg(s.pointing(t), launch.direction_body)
+        assert err.max() < 1.5 and err.max() > 0.01
+
+
+# ------------------------------------------------------------ idle
+
+
+def test_idle_keeps_the_arm_down_whenever_the_elbow_bends():
+    bent_seen, swing_seen = 0, 0.0
+    for seed in range(4):
+        s = session(PlayerProfile(), seed=seed, gestures=2, idle_s=(10.0, 14.0))
+        for t0, t1 in s.idle_intervals:
+            t = np.arange(t0, t1, 0.01)
+            flex, elevation = s.flex_deg(t), s.elevation_deg(t)
+            assert np.all(elevation[flex > 50] < 40)
+            assert elevation.max() < 27.0 and flex.max() <= 60.0 + 1e-9
+            bent_seen += int(np.sum(flex > 50))
+            swing_seen = max(swing_seen, float(elevation.max()))
+    assert bent_seen > 0 and swing_seen > 15  # the test saw bends and swings
+
+
+def test_the_session_is_scripted_in_order():
+    s = session(STILL, seed=2, gestures=3, idle_s=3.0)
+    kinds = [x.kind for x in s.segments]
+    assert kinds == ["calibration", "idle", "gesture", "idle", "gesture", "idle", "gesture", "idle"]
+    ends = [(x.t0, x.t1) for x in s.segments]
+    assert all(a[1] == pytest.approx(b[0]) for a, b in zip(ends, ends[1:]))
+    assert s.duration_s == pytest.approx(ends[-1][1])
+    assert s.idle_intervals == [(x.t0, x.t1) for x in s.segments if x.kind == "idle"]
+    assert all(t1 - t0 == pytest.approx(3.0) for t0, t1 in s.idle_intervals)
+    json.dumps(s.truth_json())
+
+
+def test_calibration_poses_are_held_still_down_and_forward():
+    s = session(STILL, seed=4, gestures=0, idle_s=0)
+    down, forward = s.calibration
+    assert down[1] - down[0] == pytest.approx(2.5, abs=0.2)
+    assert forward[1] - forward[0] == pytest.approx(2.0, abs=0.25)
+    assert s.pointing(np.linspace(*down, 20)) == pytest.approx(np.tile([0, 0, -1.0], (20, 1)))
+    assert s.pointing(np.linspace(*forward, 20)) == pytest.approx(np.tile([0, 1.0, 0], (20, 1)), abs=1e-12)
+
+
+def test_same_seed_same_session_other_seed_other_session():
+    a, b, c = (session(PlayerProfile(), seed=k, gestures=2, idle_s=2.0) for k in (7, 7, 8))
+    t = np.linspace(0, a.duration_s, 500)
+    assert np.array_equal(a.motion.root(t), b.motion.root(t)) and a.launches == b.launches
+    assert a.launches != c.launches
+
+
+# ------------------------------------------------------------ speed
+
+
+def test_speed_divides_every_duration():
+    slow = session(replace_speed(1.0), seed=9, gestures=3, idle_s=0)
+    fast = session(replace_speed(2.0), seed=9, gestures=3, idle_s=0)
+    assert fast.duration_s == pytest.approx(slow.duration_s / 2)
+    assert len(fast.launches) == len(slow.launches)
+    for a, b in zip(slow.launches, fast.launches):
+        assert b.t_straight == pytest.approx(a.t_straight / 2)
+        assert b.t_straight_start == pytest.approx(a.t_straight_start / 2)
+        assert b.charge_time == pytest.approx(a.charge_time / 2)
+        assert b.direction_body == pytest.approx(a.direction_body)
+    assert np.array(fast.calibration) == pytest.approx(np.array(slow.calibration) / 2)
+    t = np.linspace(0, slow.duration_s, 300)
+    assert fast.motion.root(t / 2) == pytest.approx(slow.motion.root(t), abs=1e-9)
+
+
+def replace_speed(speed):
+    return PlayerProfile(tremor_deg=0.0, speed=speed)
+
+
+# ------------------------------------------------------------ profile
+
+
+def test_profile_defaults_and_json(tmp_path):
+    p = PlayerProfile()
+    assert (p.upper_arm_m, p.forearm_m, p.mount_roll_deg, p.mount_pitch_deg) == (0.30, 0.27, 0.0, 0.0)
+    assert (p.flex_straight_ohm, p.flex_bent_ohm, p.gyro_bias_dps) == (12000.0, 50000.0, 1.0)
+    assert (p.noise_scale, p.tremor_deg, p.speed) == (1.0, 0.02, 1.0)
+    assert PlayerProfile.from_json({}) == p
+    q = PlayerProfile.from_json({"speed": 2, "mount_roll_deg": -25.5})
+    assert q.speed == 2.0 and isinstance(q.speed, float) and q.mount_roll_deg == -25.5
+    assert PlayerProfile.from_json(q.to_json()) == q
+    path = tmp_path / "player.json"
+    path.write_text(json.dumps({"tremor_deg": 0.2}))
+    assert PlayerProfile.load(path) == PlayerProfile(tremor_deg=0.2)
+
+
+@pytest.mark.parametrize("data, key", [
+    ({"sped": 2.0}, "sped"),
+    ({"speed": "fast"}, "speed"),
+    ({"speed": True}, "speed"),
+    ({"speed": 0.0}, "speed"),
+    ({"upper_arm_m": float("nan")}, "upper_arm_m"),
+    ({"tremor_deg": float("inf")}, "tremor_deg"),
+    ({"mount_pitch_deg": 200}, "mount_pitch_deg"),
+    ({"gyro_bias_dps": None}, "gyro_bias_dps"),
+    ({"flex_bent_ohm": 10000.0}, "flex_bent_ohm"),
+])
+def test_profile_rejects_bad_input_naming_the_key(data, key):
+    with pytest.raises(ValueError, match=key) as e:
+        PlayerProfile.from_json(data)
+    assert "\n" not in str(e.value)
+
+
+def test_profile_load_names_the_broken_file(tmp_path):
+    path = tmp_path / "broken.json"
+    path.write_text("{not json")
+    with pytest.raises(ValueError, match="broken.json"):
+        PlayerProfile.load(path)
+    path.write_text("[1, 2]")
+    with pytest.raises(ValueError, match="JSON object"):
+        PlayerProfile.load(path)
+
+
+def test_profile_builds_the_worn_chain():
+    p = PlayerProfile(upper_arm_m=0.32, mount_roll_deg=90.0, mount_pitch_deg=0.0)
+    chain = p.chain()
+    assert chain.links[0].length_m == 0.32 and chain.sensors[0].position_m == (0.0, 0.0, -0.32)
+    assert Q.rotate(chain.sensors[0].mount, (1.0, 0, 0)) == pytest.approx([0, 1.0, 0])  # roll about z
+    tilted = PlayerProfile(mount_pitch_deg=10.0).mount()
+    assert Q.rotate(tilted, (0, 1.0, 0)) == pytest.approx([0, 1.0, 0])  # pitch about the hinge
+    assert p.flex_sensor().bent_ohm == 50000.0
+    assert p.sensor_errors().gyr.offset_max == pytest.approx(math.radians(1.0))
+
+
+# ------------------------------------------------------------ in the simulator
+
+
+def test_the_motion_runs_in_the_simulator_with_plausible_readings():
+    profile = PlayerProfile()
+    s = session(profile, seed=11, gestures=3, idle_s=(4.0, 6.0))
+    data = Simulator(arm_chain(), s.motion, mpu9250(), seed=11).simulate(s.duration_s, 200.0)
+    for x in (data.acc, data.gyr, data.mag, data.truth.acc, data.truth.gyr):
+        assert np.all(np.isfinite(x))
+    acc, gyr = np.linalg.norm(data.truth.acc[:, 0], axis=1), np.linalg.norm(data.truth.gyr[:, 0], axis=1)
+    assert acc.max() < 40.0 and gyr.max() < 20.0
+    assert gyr.max() > 2.0  # the arm really moves
+    worn = Simulator(profile.chain(), s.motion, profile.sensor_errors(), profile.flex_sensor(), seed=1)
+    assert np.all(np.isfinite(worn.simulate(10.0, 100.0).acc))
+
+
+def test_sensor_frame_convention_in_the_calibration_poses():
+    """Ideal wearing: hanging, the board feels +g on z; arm forward, +g on -x; raising turns about y."""
+    s = session(STILL, seed=1, gestures=0, idle_s=0)
+    sim = Simulator(arm_chain(), s.motion)
+    (d0, d1), (f0, f1) = s.calibration
+    assert sim.truth(np.linspace(d0 + 0.01, d1 - 0.01, 5)).acc[:, 0] == pytest.approx(np.tile([0, 0, 9.81], (5, 1)), abs=1e-6)
+    assert sim.truth(np.linspace(f0 + 0.01, f1 - 0.01, 5)).acc[:, 0] == pytest.approx(np.tile([-9.81, 0, 0], (5, 1)), abs=1e-6)
+    gyr = sim.truth(np.linspace(d1, f0, 50)).gyr[:, 0]
+    assert np.abs(gyr[:, [0, 2]]).max() < 1e-6 and gyr[:, 1].min() > -1e-9 and gyr[:, 1].max() > 1.0
+
+
+def test_the_avatar_and_the_simulated_forearm_agree(still_session):
+    """The root fed to the avatar (ideal mounting) points its arm and forearm where the sim's do."""
+    s = still_session
+    sim = Simulator(arm_chain(), s.motion)
+    launch = s.launches[0]
+    t = launch.t_straight_start - 0.05  # elbow bent at ~100 deg, the arm aimed
+    truth = sim.truth([t])
+    arm = Avatar().update(ArmPose(tuple(truth.q_links[0, 0]), float(truth.flex_deg[0]), t))
+    assert arm.pointing == pytest.approx(launch.direction_body, abs=1e-9)
+    forearm_sim = Q.rotate(truth.q_links[0, 1], (0, 0, -1.0))
+    forearm_avatar = (arm.wrist - arm.elbow) / np.linalg.norm(arm.wrist - arm.elbow)
+    assert forearm_avatar == pytest.approx(forearm_sim, abs=1e-9)
+    assert forearm_sim[2] > 0.5  # a bent elbow with the arm level lifts the forearm
+
+
+def test_a_built_session_does_not_change_when_the_script_goes_on():
+    script = Script(STILL, seed=6)
+    script.calibration()
+    before = script.build()
+    t = np.linspace(0, before.duration_s + 5.0, 200)
+    q = before.motion.root(t)
+    script.gesture()
+    assert np.array_equal(before.motion.root(t), q) and before.launches == []
+    assert script.build().launches
