@@ -1,0 +1,176 @@
+"""Measured gesture accuracy: simulated players through the real pipeline.
+
+Each trial scripts a player (:mod:`game.motion_model`: minimum-jerk reaches,
+reaction times, tremor, idle fidgeting and walking), simulates the board's
+sensors on them (:mod:`tracker.sim`, MPU-9250 errors, the flex circuit),
+quantises and frames every sample as the firmware does, and decodes the
+bytes. From there the game's own code runs: the ``default`` filter and flex
+tracker (:mod:`game.tracking`), "hold still" and the two-pose wearing
+calibration (:mod:`game.wearing`), the avatar and the gesture machine. The
+launches it reports are matched to the ones the player made.
+
+Matching: a reported launch belongs to a true one when it comes between the
+start of the elbow's straightening (less 50 ms) and 400 ms after the elbow
+crossed the launch threshold; each true launch takes at most one. Latency is
+the time from that crossing to the report; aim error the angle between the
+reported direction and where the arm truly pointed. A report matching none is
+a false launch; those inside idle stretches count toward the idle rate.
+"""
+
+from __future__ import annotations
+
+import math
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from tracker import protocol as P
+from tracker.board import quantise
+from tracker.motion import SensorReading
+from tracker.sim import Simulator
+
+from .avatar import Avatar, BodySettings
+from .gestures import GestureMachine
+from .motion_model import PlayerProfile, Session, session
+from .pose import ArmPose
+from .tracking import Tracking
+from .wearing import arm_down_then_forward
+
+RATE_HZ = 200.0
+MATCH_BEFORE_S = 0.05
+MATCH_AFTER_S = 0.4
+POSE_WINDOW_S = 1.0  # the last second of each calibration hold is used
+CHUNK = 64  # bytes per decoder feed, about what a serial read returns
+
+
+@dataclass
+class TrialResult:
+    """What one simulated session produced."""
+
+    true_launches: int = 0
+    matched: int = 0
+    false_launches: int = 0
+    idle_false_launches: int = 0
+    idle_minutes: float = 0.0
+    latencies_ms: list[float] = field(default_factory=list)
+    aim_errors_deg: list[float] = field(default_factory=list)
+    calibration: str = ""
+
+
+def board_stream(sim_session: Session, profile: PlayerProfile, seed: int) -> list[P.RawSample]:
+    """The session as the host receives it: simulated, quantised, framed, sent, decoded."""
+    sim = Simulator(profile.chain(), sim_session.motion, profile.sensor_errors(),
+                    profile.flex_sensor(), seed=seed)
+    data = sim.simulate(sim_session.duration_s, RATE_HZ)
+    wire = bytearray()
+    for k in range(len(data.t)):
+        reading = SensorReading(tuple(data.acc[k, 0]), tuple(data.gyr[k, 0]), tuple(data.mag[k, 0]),
+                                0.0, int(data.flex_adc[k]), (1.0, 0.0, 0.0, 0.0))
+        wire += P.encode_raw(quantise(reading, float(data.t[k]), round(data.t[k] * 1e6), k & 0xFFFF,
+                                      16, 2000))
+    decoder = P.FrameDecoder()
+    samples: list[P.RawSample] = []
+    for i in range(0, len(wire), CHUNK):
+        samples += decoder.feed(bytes(wire[i:i + CHUNK]))  # type: ignore[arg-type]
+    return samples
+
+
+def _within(t: float, interval: tuple[float, float], last_s: float | None = None) -> bool:
+    t0, t1 = interval
+    return (t1 - last_s if last_s else t0) <= t < t1
+
+
+def run_trial(profile: PlayerProfile, seed: int, gestures: int = 10) -> TrialResult:
+    """One scripted session through the whole pipeline."""
+    script = session(profile, seed, gestures=gestures)
+    samples = board_stream(script, profile, seed)
+    down, forward = script.calibration
+    tracking = Tracking()
+    avatar = Avatar(BodySettings(upper_arm_m=profile.upper_arm_m, forearm_m=profile.forearm_m))
+    machine = GestureMachine()
+    result = TrialResult(true_launches=len(script.launches))
+    still: list[P.RawSample] = []
+    down_poses: list[ArmPose] = []
+    forward_poses: list[ArmPose] = []
+    launches = []
+    calibrated = False
+    for s in samples:
+        pose = tracking.feed(s)
+        if not calibrated:
+            if _within(s.t, down):
+                still.append(s)
+            if _within(s.t, down, POSE_WINDOW_S):
+                down_poses.append(pose)
+            if _within(s.t, forward, POSE_WINDOW_S):
+                forward_poses.append(pose)
+            if s.t >= forward[1]:
+                tracking.hold_still(still)
+                outcome = arm_down_then_forward(avatar, down_poses, forward_poses)
+                result.calibration = outcome.message
+                avatar.wearing = outcome.wearing
+                calibrated = True
+            continue
+        launches += [e for e in machine.update(avatar.update(pose)) if e.kind == "launch"]
+    _score(script, launches, result)
+    return result
+
+
+def _score(script: Session, launches: list, result: TrialResult) -> None:
+    unmatched = list(script.launches)
+    for event in launches:
+        truth = next((x for x in unmatched
+                      if x.t_straight_start - MATCH_BEFORE_S <= event.t <= x.t_straight + MATCH_AFTER_S), None)
+        if truth is None:
+            result.false_launches += 1
+            result.idle_false_launches += any(_within(event.t, i) for i in script.idle_intervals)
+            continue
+        unmatched.remove(truth)
+        result.matched += 1
+        result.latencies_ms.append(1000.0 * (event.t - truth.t_straight))
+        cos = float(np.clip(np.dot(event.direction, truth.direction_body), -1.0, 1.0))
+        result.aim_errors_deg.append(math.degrees(math.acos(cos)))
+    result.idle_minutes = sum(t1 - t0 for t0, t1 in script.idle_intervals) / 60.0
+
+
+def _run(args: tuple[PlayerProfile, int, int]) -> TrialResult:
+    return run_trial(*args)
+
+
+def evaluate(profile: PlayerProfile, trials: int, seed: int, gestures: int = 10,
+             progress: Callable[[str], None] | None = None, workers: int = 2) -> dict:
+    """Run the trials (in parallel) and report the figures the README quotes."""
+    jobs = [(profile, seed + k, gestures) for k in range(trials)]
+    results: list[TrialResult] = []
+    with ProcessPoolExecutor(max_workers=max(1, workers)) as pool:
+        for r in pool.map(_run, jobs):
+            results.append(r)
+            if progress:
+                progress(f"trial {len(results)}/{trials}: {r.matched}/{r.true_launches} launches, "
+                         f"{r.false_launches} false")
+    return summarise(results)
+
+
+def summarise(results: list[TrialResult]) -> dict:
+    """The JSON report over all trials."""
+    matched = sum(r.matched for r in results)
+    reported = matched + sum(r.false_launches for r in results)
+    true = sum(r.true_launches for r in results)
+    idle_minutes = sum(r.idle_minutes for r in results)
+    latency = [x for r in results for x in r.latencies_ms]
+    aim = [x for r in results for x in r.aim_errors_deg]
+
+    def pct(values: list[float], q: float) -> float | None:
+        return round(float(np.percentile(values, q)), 2) if values else None
+
+    return {
+        "launch_precision": round(matched / reported, 4) if reported else None,
+        "launch_recall": round(matched / true, 4) if true else None,
+        "false_launches_per_min": round(sum(r.idle_false_launches for r in results) / idle_minutes, 4)
+        if idle_minutes else None,
+        "latency_ms_median": pct(latency, 50), "latency_ms_p95": pct(latency, 95),
+        "aim_error_deg_median": pct(aim, 50), "aim_error_deg_p95": pct(aim, 95),
+        "trials": len(results), "launches": true, "idle_minutes": round(idle_minutes, 2),
+        "false_launches": reported - matched,
+    }

@@ -1,0 +1,390 @@
+"""The energy-ball gesture machine: arm states in, game events out (seed 000 sec. 5, Fig. 1).
+
+The paper's game "implement[s] the gesture control with a state machine":
+
+``IDLE``      arm pointing down; the ball sits at the shoulder (Fig. 1 left).
+``LOADING``   arm raised and pointed out; the ball floats up (Fig. 1 mid-left).
+``SPINNING``  forearm flexed; the ball spins fast and its charge grows (Fig. 1 mid-right).
+``FIRED``     the forearm waved back to straight shot the ball toward where the
+              arm points (Fig. 1 right); the arm is still up, there is no ball.
+              "He can restore the position of the ball by flexing his arm
+              again": flexing in ``FIRED`` brings a new, spinning ball.
+
+Lowering the arm returns to ``IDLE`` from every state. The transitions and
+the events they emit::
+
+    IDLE     --arm raised-------------------------> LOADING    "load"
+    LOADING  --forearm flexed---------------------> SPINNING   "spin"
+    SPINNING --forearm waved straight-------------> FIRED      "launch" (aim, charge)
+    SPINNING --too short a spin, or a slow relax--> LOADING    "load"   (no shot, ball kept)
+    FIRED    --forearm flexed again---------------> SPINNING   "reload"
+    any      --arm lowered------------------------> IDLE       "idle"
+
+Noise. Every transition needs its condition to hold for a dwell time
+(a brief spike does nothing), and each pair of opposite transitions uses two
+thresholds (hysteresis: hovering at one threshold with jitter can cross it
+at most once, never back). A sample with a NaN (or an unusable pointing, or a
+time stamp older than the last one) is ignored: no event, no state change,
+the dwell clocks keep running on the samples around it.
+
+Times. A transition's *onset* is the first sample of its dwell; the event
+carries the time of *detection* (the sample that completed the dwell). Spin
+time runs from the onset of the flex above flex-on to the onset of the
+straight forearm below flex-off (the "crossing" below); the charge is that
+spin time over ``charge_s``, capped at 1, and a spin shorter than
+``min_spin_s`` launches nothing.
+
+The wave. A launch is a wave across the whole hysteresis band: from the
+last sample flexed above flex-on (the "release") to the first of the
+samples below flex-off that confirm the launch (the "crossing"), in at most
+``max_straighten_s`` (30 deg in 0.4 s by default: faster than 75 deg/s). A
+slower straightening is a relaxation, not a throw: the ball stops spinning
+and stays (``LOADING``, a "load" event). So a player who relaxes into the
+band (say to 40 deg) and waves from there keeps the ball; flexing above
+flex-on again and waving throws it. While the arm is on its way down (below
+the lower threshold, dwell not yet over) the forearm's transitions are held,
+so relaxing the elbow while lowering the arm ends in ``IDLE``, never in a
+launch.
+
+Aim. The unflex itself swings the arm, so the launch direction is the
+pointing at the *start of the straightening*: the last local maximum of the
+flex before the release, i.e. the latest sample in the ``aim_lookback_s``
+before the release whose flex is within ``aim_tolerance_deg`` (jitter) of
+the highest flex in that window. Taking the last sample above flex-on (the
+release itself) would be simpler, but a deep flex (say 120 deg) is already
+halfway through its wave when it passes flex-on, and the arm may be moving
+by then; a window ending at the release (rather than a search back over the
+whole spin) keeps a player who relaxed from 90 to 60 deg and held there
+aiming with where the arm pointed at the end of that hold, not seconds ago.
+The history the aim needs is bounded (``history_s``, at most
+``HISTORY_MAX_SAMPLES`` samples).
+
+Units: seconds and degrees; directions are unit vectors in the world frame
+(z up), as in :class:`game.avatar.ArmState`. No pygame here.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, field, fields
+from enum import Enum
+from typing import Iterable, Literal, NamedTuple, get_args
+
+import numpy as np
+
+from .avatar import ArmState
+
+Vec3 = tuple[float, float, float]
+EventKind = Literal["load", "spin", "launch", "reload", "idle"]
+EVENT_KINDS: tuple[str, ...] = get_args(EventKind)
+HISTORY_MAX_SAMPLES = 4096  # a hard bound on the aim history, whatever the sample rate
+DOWN: Vec3 = (0.0, 0.0, -1.0)
+
+
+class GestureState(str, Enum):
+    """Where the ball is (seed 000 Fig. 1)."""
+
+    IDLE = "idle"          # ball at the shoulder
+    LOADING = "loading"    # arm up, ball floating up / afloat
+    SPINNING = "spinning"  # elbow flexed, ball spinning, charge growing
+    FIRED = "fired"        # ball launched, arm still up, no ball
+
+
+_ANGLES = ("raise_deg", "lower_deg", "flex_on_deg", "flex_off_deg", "aim_tolerance_deg")
+_TIMES = ("raise_dwell_s", "lower_dwell_s", "flex_dwell_s", "min_spin_s", "aim_lookback_s")
+_POSITIVE_TIMES = ("charge_s", "rise_s", "history_s")
+
+
+@dataclass(frozen=True)
+class GestureSettings:
+    """Every threshold of the gesture machine, with its default.
+
+    Arm (elevation: 0 = hanging down, 90 = level), with hysteresis:
+      ``raise_deg`` 55: above it the arm is raised (IDLE -> LOADING).
+      ``lower_deg`` 35: below it the arm is lowered (any -> IDLE); below ``raise_deg``.
+    Elbow (flex: 0 = straight), with hysteresis:
+      ``flex_on_deg`` 55: above it the forearm is flexed (LOADING -> SPINNING, FIRED -> SPINNING).
+      ``flex_off_deg`` 25: below it the forearm is straight (SPINNING -> FIRED); below ``flex_on_deg``.
+    Dwell: how long a condition must hold before it counts.
+      ``raise_dwell_s`` 0.12, ``lower_dwell_s`` 0.30 (longer: dropping the
+      ball by accident costs more than a late load), ``flex_dwell_s`` 0.08
+      (both ways: flexing and straightening).
+    Spin:
+      ``min_spin_s`` 0.15: a shorter spin is no throw (the ball stays, LOADING).
+      ``charge_s`` 1.2: the spin time that gives a full charge (charge = spin / charge_s, capped at 1).
+      ``max_straighten_s`` 0.4: the wave from above flex-on to below flex-off
+      must take at most this to launch; slower is a relaxation and keeps the
+      ball (a quick 90 deg wave takes 0.1-0.3 s, so its 30 deg band 0.03-0.1 s;
+      letting a 90 deg flex sag over 1.2 s or more is no throw).
+      ``math.inf`` turns the check off (every straightening then launches).
+    Aim:
+      ``aim_lookback_s`` 0.25: how far before the release the start of the
+      straightening is looked for (a 130 deg flex waved at 450 deg/s
+      reaches flex-on in 0.17 s).
+      ``aim_tolerance_deg`` 8: flex jitter tolerated when finding the start of
+      the straightening (above the +-3 deg of a typical flex sensor).
+      ``history_s`` 1.0: how much of the past the machine keeps for the aim;
+      at least ``aim_lookback_s + max_straighten_s + flex_dwell_s`` (when
+      ``max_straighten_s`` is finite), so the window is still there at the launch.
+    Rendering:
+      ``rise_s`` 0.4: how long the ball takes to float up after "load" (:attr:`GestureMachine.progress`).
+    """
+
+    raise_deg: float = 55.0
+    lower_deg: float = 35.0
+    flex_on_deg: float = 55.0
+    flex_off_deg: float = 25.0
+    raise_dwell_s: float = 0.12
+    lower_dwell_s: float = 0.30
+    flex_dwell_s: float = 0.08
+    min_spin_s: float = 0.15
+    charge_s: float = 1.2
+    max_straighten_s: float = 0.4
+    aim_lookback_s: float = 0.25
+    aim_tolerance_deg: float = 8.0
+    history_s: float = 1.0
+    rise_s: float = 0.4
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or math.isnan(value):
+                raise ValueError(f"{f.name} must be a number, not {value!r}")
+        for name in _ANGLES:
+            value = getattr(self, name)
+            if not 0.0 <= value <= 180.0:
+                raise ValueError(f"{name} must be an angle between 0 and 180 degrees, not {value!r}")
+        for name in _TIMES:
+            value = getattr(self, name)
+            if not 0.0 <= value < math.inf:
+                raise ValueError(f"{name} must be a time of 0 s or more, not {value!r}")
+        for name in _POSITIVE_TIMES:
+            value = getattr(self, name)
+            if not 0.0 < value < math.inf:
+                raise ValueError(f"{name} must be a time of more than 0 s, not {value!r}")
+        if not self.max_straighten_s > 0.0:
+            raise ValueError(f"max_straighten_s must be more than 0 s (math.inf turns it off), "
+                             f"not {self.max_straighten_s!r}")
+        if self.lower_deg >= self.raise_deg:
+            raise ValueError(f"lower_deg ({self.lower_deg}) must be below raise_deg ({self.raise_deg}): "
+                             f"the gap between them is the hysteresis that stops chatter")
+        if self.flex_off_deg >= self.flex_on_deg:
+            raise ValueError(f"flex_off_deg ({self.flex_off_deg}) must be below flex_on_deg "
+                             f"({self.flex_on_deg}): the gap between them is the hysteresis that stops chatter")
+        needed = self.aim_lookback_s + self.max_straighten_s + self.flex_dwell_s
+        if math.isfinite(needed) and self.history_s < needed - 1e-12:
+            raise ValueError(f"history_s ({self.history_s}) must be at least aim_lookback_s + max_straighten_s"
+                             f" + flex_dwell_s ({needed:g}), or the aim could be forgotten before the launch")
+
+
+@dataclass(frozen=True)
+class GestureEvent:
+    """Something the game reacts to.
+
+    ``t`` is the time of detection. ``direction`` is a unit vector (world,
+    z up): for "launch" the aim (the pointing at the start of the
+    straightening), for the other kinds the pointing at ``t``. ``charge`` is
+    0..1, the launch's charge; 0 for the other kinds.
+    """
+
+    kind: EventKind
+    t: float
+    direction: Vec3
+    charge: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.kind not in EVENT_KINDS:
+            raise ValueError(f"kind must be one of {', '.join(EVENT_KINDS)}, not {self.kind!r}")
+        if not 0.0 <= self.charge <= 1.0:
+            raise ValueError(f"charge must be between 0 and 1, not {self.charge!r}")
+
+
+class Sample(NamedTuple):
+    """The part of an ArmState the machine uses and remembers."""
+
+    t: float
+    elevation: float
+    flex: float
+    pointing: Vec3
+
+
+@dataclass
+class Dwell:
+    """A condition that must hold, sample after sample, for a while before it counts."""
+
+    since: float | None = None  # the onset: the first sample of the current run
+
+    def step(self, condition: bool, t: float, dwell_s: float) -> bool:
+        """Feed one sample; True once the condition has held for ``dwell_s``."""
+        if not condition:
+            self.since = None
+            return False
+        if self.since is None:
+            self.since = t
+        return t - self.since >= dwell_s
+
+
+@dataclass
+class GestureMemory:
+    """Everything the machine remembers between samples."""
+
+    state: GestureState = GestureState.IDLE
+    t: float | None = None  # the last usable sample's time
+    pointing: Vec3 = DOWN  # the last usable sample's pointing
+    rise_start: float = -math.inf  # when the ball began to float up
+    spin_start: float = 0.0  # the onset of the flex that started the spin
+    release: Sample | None = None  # the last sample of this spin flexed above flex-on
+    raised: Dwell = field(default_factory=Dwell)
+    lowered: Dwell = field(default_factory=Dwell)
+    flexed: Dwell = field(default_factory=Dwell)
+    straight: Dwell = field(default_factory=Dwell)
+    history: deque[Sample] = field(default_factory=lambda: deque(maxlen=HISTORY_MAX_SAMPLES))
+
+    def clear_dwells(self) -> None:
+        for dwell in (self.raised, self.lowered, self.flexed, self.straight):
+            dwell.since = None
+
+
+def usable_sample(arm: ArmState, last_t: float | None) -> Sample | None:
+    """The sample in ``arm``, or None if it has a NaN, a bad pointing or an old time stamp."""
+    try:
+        t, elevation, flex = float(arm.t), float(arm.elevation_deg), float(arm.flex_deg)
+        pointing = np.asarray(arm.pointing, dtype=float)
+    except (TypeError, ValueError, AttributeError):
+        return None
+    if not (math.isfinite(t) and math.isfinite(elevation) and math.isfinite(flex)):
+        return None
+    if pointing.shape != (3,) or not np.all(np.isfinite(pointing)):
+        return None
+    norm = float(np.linalg.norm(pointing))
+    if norm < 1e-9 or (last_t is not None and t < last_t):
+        return None
+    unit = pointing / norm
+    return Sample(t, elevation, flex, (float(unit[0]), float(unit[1]), float(unit[2])))
+
+
+def straightening_start(history: Iterable[Sample], release: Sample, lookback_s: float,
+                        tolerance_deg: float) -> Sample:
+    """Where the final straightening began: the last local maximum of flex before ``release``.
+
+    Among the samples of ``history`` in ``[release.t - lookback_s, release.t]``
+    (and ``release`` itself), the latest whose flex is within ``tolerance_deg``
+    of the highest flex among them.
+    """
+    window = [s for s in history if release.t - lookback_s <= s.t <= release.t] or [release]
+    peak = max(s.flex for s in window)
+    return next(s for s in reversed(window) if s.flex >= peak - tolerance_deg)
+
+
+class GestureMachine:
+    """Energy-ball gestures from a stream of :class:`ArmState` (seed 000 sec. 5).
+
+    Feed every avatar update to :meth:`update` and act on the events it
+    returns; :attr:`state`, :attr:`charge`, :attr:`progress` and
+    :attr:`has_ball` are for drawing the ball between events.
+    """
+
+    def __init__(self, settings: GestureSettings | None = None) -> None:
+        self._settings = settings if settings is not None else GestureSettings()
+        self._memory = GestureMemory()
+
+    # ------------------------------------------------------------- reading
+
+    @property
+    def settings(self) -> GestureSettings:
+        return self._settings
+
+    @property
+    def state(self) -> GestureState:
+        return self._memory.state
+
+    @property
+    def has_ball(self) -> bool:
+        """Whether there is a ball to draw (none between a launch and the reload)."""
+        return self._memory.state is not GestureState.FIRED
+
+    @property
+    def progress(self) -> float:
+        """How far the ball has floated up from the shoulder, 0..1 (1 while spinning)."""
+        m = self._memory
+        if m.state is GestureState.SPINNING:
+            return 1.0
+        if m.state is not GestureState.LOADING or m.t is None:
+            return 0.0
+        return min(1.0, max(0.0, (m.t - m.rise_start) / self._settings.rise_s))
+
+    @property
+    def charge(self) -> float:
+        """The spinning ball's charge, 0..1 (0 in the other states)."""
+        m = self._memory
+        if m.state is not GestureState.SPINNING or m.t is None:
+            return 0.0
+        end = m.straight.since if m.straight.since is not None else m.t
+        return self._charge(end - m.spin_start)
+
+    # ------------------------------------------------------------- driving
+
+    def reset(self) -> None:
+        """Back to IDLE with no history (a new round, a recalibration)."""
+        self._memory = GestureMemory()
+
+    def update(self, arm: ArmState) -> list[GestureEvent]:
+        """Feed one arm state; return the events it completes (usually none, at most one)."""
+        m, s = self._memory, self._settings
+        sample = usable_sample(arm, m.t)
+        if sample is None:
+            return []
+        m.t, m.pointing = sample.t, sample.pointing
+        self._remember(sample)
+        if m.state is GestureState.IDLE:
+            if m.raised.step(sample.elevation > s.raise_deg, sample.t, s.raise_dwell_s):
+                m.rise_start = sample.t
+                return [self._enter(GestureState.LOADING, "load")]
+            return []
+        if m.lowered.step(sample.elevation < s.lower_deg, sample.t, s.lower_dwell_s):
+            return [self._enter(GestureState.IDLE, "idle")]
+        if m.state is GestureState.SPINNING and sample.flex > s.flex_on_deg:
+            m.release = sample
+        if m.lowered.since is not None:  # the arm is on its way down: hold the forearm
+            m.flexed.since = m.straight.since = None
+            return []
+        if m.state is GestureState.SPINNING:
+            return self._spinning(sample)
+        if m.flexed.step(sample.flex > s.flex_on_deg, sample.t, s.flex_dwell_s):
+            m.spin_start, m.release = m.flexed.since, sample  # type: ignore[assignment]
+            kind = "spin" if m.state is GestureState.LOADING else "reload"
+            return [self._enter(GestureState.SPINNING, kind)]
+        return []
+
+    # ------------------------------------------------------------- inside
+
+    def _remember(self, sample: Sample) -> None:
+        history = self._memory.history
+        history.append(sample)
+        while history[0].t < sample.t - self._settings.history_s:
+            history.popleft()
+
+    def _charge(self, spin_s: float) -> float:
+        return min(1.0, max(0.0, spin_s / self._settings.charge_s))
+
+    def _enter(self, state: GestureState, kind: EventKind, direction: Vec3 | None = None,
+               charge: float = 0.0) -> GestureEvent:
+        m = self._memory
+        m.state = state
+        m.clear_dwells()
+        assert m.t is not None  # only called on a usable sample
+        return GestureEvent(kind, m.t, direction if direction is not None else m.pointing, charge)
+
+    def _spinning(self, sample: Sample) -> list[GestureEvent]:
+        m, s = self._memory, self._settings
+        if not m.straight.step(sample.flex < s.flex_off_deg, sample.t, s.flex_dwell_s):
+            return []
+        crossed, release = m.straight.since, m.release
+        assert crossed is not None and release is not None  # set on entering SPINNING
+        spin_s = crossed - m.spin_start
+        if spin_s < s.min_spin_s or crossed - release.t > s.max_straighten_s:
+            m.rise_start = -math.inf  # the ball is already up
+            return [self._enter(GestureState.LOADING, "load")]
+        start = straightening_start(m.history, release, s.aim_lookback_s, s.aim_tolerance_deg)
+        return [self._enter(GestureState.FIRED, "launch", start.pointing, self._charge(spin_s))]
