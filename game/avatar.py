@@ -34,8 +34,11 @@ from typing import Literal
 import numpy as np
 
 from tracker import quat as Q
+from tracker.fusion import qmath as q
 
 from .pose import ArmPose, Quat
+
+Vec = tuple[float, float, float]
 
 Side = Literal["right", "left"]
 Mounting = Literal["aligned", "paper45"]
@@ -134,8 +137,9 @@ def hinge(flex_deg: float, mounting: Mounting) -> Quat:
     45 degree offset about the arm.
     """
     if mounting == "paper45":
-        return tuple(Q.unity_euler(flex_deg, -flex_deg, 0.0))  # type: ignore[return-value]
-    return tuple(Q.from_axis_angle((1.0, 0.0, 0.0), math.radians(flex_deg)))  # type: ignore[return-value]
+        return tuple(float(c) for c in Q.unity_euler(flex_deg, -flex_deg, 0.0))  # type: ignore[return-value]
+    half = 0.5 * math.radians(flex_deg)
+    return (math.cos(half), math.sin(half), 0.0, 0.0)
 
 
 @dataclass
@@ -148,8 +152,8 @@ class Avatar:
     position: tuple[float, float] = (0.0, 0.0)  # where the avatar stands on the ground
     bones: tuple[Bone, ...] = field(init=False)
     local: dict[str, Quat] = field(init=False)
-    world_rot: dict[str, np.ndarray] = field(init=False)
-    world_pos: dict[str, np.ndarray] = field(init=False)
+    world_rot: dict[str, Quat] = field(init=False)
+    world_pos: dict[str, Vec] = field(init=False)
 
     def __post_init__(self) -> None:
         self.bones = skeleton(self.body)
@@ -159,46 +163,48 @@ class Avatar:
 
     # ------------------------------------------------------------ kinematics
 
-    def forward_kinematics(self, overrides: dict[str, np.ndarray] | None = None) -> None:
+    def forward_kinematics(self, overrides: dict[str, Quat] | None = None) -> None:
         """World rotations and joint positions of every bone, parents first.
 
         ``overrides`` gives world rotations that replace parent * local (the
-        tracked arm's chain is computed in :meth:`update`).
+        tracked arm's chain is computed in :meth:`update`). Scalar quaternion
+        math (:mod:`tracker.fusion.qmath`): this runs once per sample.
         """
         overrides = overrides or {}
-        root = Q.from_axis_angle((0.0, 0.0, 1.0), self.body_yaw)
+        root = (math.cos(0.5 * self.body_yaw), 0.0, 0.0, math.sin(0.5 * self.body_yaw))
         for bone in self.bones:
             if bone.parent is None:
-                parent_rot, parent_pos = root, np.array([*self.position, 0.0])
+                parent_rot, parent_pos = root, (self.position[0], self.position[1], 0.0)
             else:
                 parent_rot, parent_pos = self.world_rot[bone.parent], self.world_pos[bone.parent]
-            self.world_pos[bone.name] = parent_pos + Q.rotate(parent_rot, bone.offset)
-            self.world_rot[bone.name] = overrides.get(bone.name, Q.multiply(parent_rot, self.local[bone.name]))
+            self.world_pos[bone.name] = _add(parent_pos, q.rotate(parent_rot, bone.offset))
+            self.world_rot[bone.name] = overrides.get(bone.name) or q.mul(parent_rot, self.local[bone.name])
 
-    def end_of(self, name: str) -> np.ndarray:
+    def end_of(self, name: str) -> Vec:
         """Where a bone ends: its joint plus its length along its own -z."""
         bone = next(b for b in self.bones if b.name == name)
-        return self.world_pos[name] + Q.rotate(self.world_rot[name], (0.0, 0.0, -bone.length))
+        return _add(self.world_pos[name], q.rotate(self.world_rot[name], (0.0, 0.0, -bone.length)))
 
-    def upper_arm_rotation(self, q_upper: Quat) -> np.ndarray:
+    def upper_arm_rotation(self, q_upper: Quat) -> Quat:
         """initRotation * parent.rotation * inertialRotation (seed 000 sec. 4)."""
-        side = self.body.side
         self.forward_kinematics()  # the parent (shoulder) follows the body
-        parent = self.world_rot[f"{side}_shoulder"]
-        inertial = Q.multiply(q_upper, self.wearing.mount)
-        return Q.multiply(Q.multiply(self.wearing.init, parent), inertial)
+        parent = self.world_rot[f"{self.body.side}_shoulder"]
+        inertial = q.mul(tuple(q_upper), tuple(self.wearing.mount))
+        return q.normalize(q.mul(q.mul(tuple(self.wearing.init), parent), inertial))
 
     def update(self, arm: ArmPose) -> ArmState:
         """Pose the tracked arm from one ArmPose and return its joints."""
         side = self.body.side
         upper = self.upper_arm_rotation(arm.q_upper)
-        forearm = Q.multiply(upper, hinge(arm.flex_deg, self.body.mounting))
+        forearm = q.mul(upper, hinge(arm.flex_deg, self.body.mounting))
         self.forward_kinematics({f"{side}_upper_arm": upper, f"{side}_forearm": forearm,
                                  f"{side}_hand": forearm})
-        shoulder = self.world_pos[f"{side}_upper_arm"]
-        elbow = self.world_pos[f"{side}_forearm"]
-        wrist = self.world_pos[f"{side}_hand"]
-        hand = self.end_of(f"{side}_hand")
-        pointing = Q.rotate(upper, (0.0, 0.0, -1.0))
-        elevation = math.degrees(math.acos(max(-1.0, min(1.0, -float(pointing[2])))))
-        return ArmState(arm.t, shoulder, elbow, wrist, hand, pointing, elevation, arm.flex_deg)
+        pointing = q.rotate(upper, (0.0, 0.0, -1.0))
+        elevation = math.degrees(math.acos(max(-1.0, min(1.0, -pointing[2]))))
+        return ArmState(arm.t, np.array(self.world_pos[f"{side}_upper_arm"]),
+                        np.array(self.world_pos[f"{side}_forearm"]), np.array(self.world_pos[f"{side}_hand"]),
+                        np.array(self.end_of(f"{side}_hand")), np.array(pointing), elevation, arm.flex_deg)
+
+
+def _add(a: Vec, b: Vec) -> Vec:
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])

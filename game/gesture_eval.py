@@ -5,7 +5,9 @@ reaction times, tremor, idle fidgeting and walking), simulates the board's
 sensors on them (:mod:`tracker.sim`, MPU-9250 errors, the flex circuit),
 quantises and frames every sample as the firmware does, and decodes the
 bytes. From there the game's own code runs: the ``default`` filter and flex
-tracker (:mod:`game.tracking`), "hold still" and the two-pose wearing
+tracker (:mod:`game.tracking`) with the board's six-pose accelerometer
+calibration (done once by its maker, simulated here on the same board),
+"hold still" and the two-pose wearing
 calibration (:mod:`game.wearing`), the avatar and the gesture machine. The
 launches it reports are matched to the ones the player made.
 
@@ -27,9 +29,11 @@ from typing import Callable
 import numpy as np
 
 from tracker import protocol as P
+from tracker import quat as Q
 from tracker.board import quantise
+from tracker.calibration import BoardCalibration, Pose, six_pose_calibration
 from tracker.motion import SensorReading
-from tracker.sim import Simulator
+from tracker.sim import Motion, Simulator
 
 from .avatar import Avatar, BodySettings
 from .gestures import GestureMachine
@@ -77,6 +81,35 @@ def board_stream(sim_session: Session, profile: PlayerProfile, seed: int) -> lis
     return samples
 
 
+SIX_POSES = ((0, 0, 1), (0, 0, -1), (1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0))
+
+
+def maker_calibration(profile: PlayerProfile, seed: int) -> BoardCalibration:
+    """The six-pose accelerometer calibration a maker does once per board (README), simulated.
+
+    The same simulated board (same seed, so the same zero-g offsets and scale
+    errors) lies still for two seconds with each axis up and then down;
+    :func:`tracker.calibration.six_pose_calibration` solves offset and scale.
+    """
+    chain = profile.chain()
+    mount = chain.sensors[0].mount
+    poses = []
+    for axis in SIX_POSES:
+        sensor = Q.from_two_vectors(axis, (0.0, 0.0, 1.0))  # that sensor axis up
+        root = Q.multiply(sensor, Q.conjugate(mount))
+
+        def still(t: np.ndarray, root: np.ndarray = root) -> np.ndarray:
+            return np.broadcast_to(root, (len(t), 4))
+
+        motion = Motion(still, lambda t: np.zeros((len(t), 1)))
+        data = Simulator(chain, motion, profile.sensor_errors(), profile.flex_sensor(), seed=seed).simulate(2.0, RATE_HZ)
+        poses.append(Pose(data.acc[:, 0], data.gyr[:, 0]))
+    result = six_pose_calibration(poses)
+    if not result.ok:
+        raise RuntimeError(f"simulated six-pose calibration failed: {result.message}")
+    return BoardCalibration(acc_offset=result.offset, acc_scale=result.scale)
+
+
 def _within(t: float, interval: tuple[float, float], last_s: float | None = None) -> bool:
     t0, t1 = interval
     return (t1 - last_s if last_s else t0) <= t < t1
@@ -87,7 +120,7 @@ def run_trial(profile: PlayerProfile, seed: int, gestures: int = 10) -> TrialRes
     script = session(profile, seed, gestures=gestures)
     samples = board_stream(script, profile, seed)
     down, forward = script.calibration
-    tracking = Tracking()
+    tracking = Tracking(board=maker_calibration(profile, seed))
     avatar = Avatar(BodySettings(upper_arm_m=profile.upper_arm_m, forearm_m=profile.forearm_m))
     machine = GestureMachine()
     result = TrialResult(true_launches=len(script.launches))
@@ -97,18 +130,19 @@ def run_trial(profile: PlayerProfile, seed: int, gestures: int = 10) -> TrialRes
     launches = []
     calibrated = False
     for s in samples:
+        if not calibrated and s.t >= down[1] and not down_poses:
+            # "Hold still" ended: learn the bias, then redo the hold with it.
+            bias = tracking.hold_still(still)
+            down_poses = [p for p, x in zip(tracking.refilter(still), still) if _within(x.t, down, POSE_WINDOW_S)]
         pose = tracking.feed(s)
         if not calibrated:
             if _within(s.t, down):
                 still.append(s)
-            if _within(s.t, down, POSE_WINDOW_S):
-                down_poses.append(pose)
             if _within(s.t, forward, POSE_WINDOW_S):
                 forward_poses.append(pose)
             if s.t >= forward[1]:
-                tracking.hold_still(still)
                 outcome = arm_down_then_forward(avatar, down_poses, forward_poses)
-                result.calibration = outcome.message
+                result.calibration = f"{bias.message}; {outcome.message}"
                 avatar.wearing = outcome.wearing
                 calibrated = True
             continue

@@ -108,8 +108,10 @@ class GestureSettings:
       ``flex_off_deg`` 25: below it the forearm is straight (SPINNING -> FIRED); below ``flex_on_deg``.
     Dwell: how long a condition must hold before it counts.
       ``raise_dwell_s`` 0.12, ``lower_dwell_s`` 0.30 (longer: dropping the
-      ball by accident costs more than a late load), ``flex_dwell_s`` 0.08
-      (both ways: flexing and straightening).
+      ball by accident costs more than a late load), ``flex_dwell_s`` 0.03
+      (both ways: flexing and straightening; six samples at 200 Hz, short
+      because every millisecond here is launch latency, and the 30 deg
+      hysteresis band already keeps flex jitter out).
     Spin:
       ``min_spin_s`` 0.15: a shorter spin is no throw (the ball stays, LOADING).
       ``charge_s`` 1.2: the spin time that gives a full charge (charge = spin / charge_s, capped at 1).
@@ -137,7 +139,7 @@ class GestureSettings:
     flex_off_deg: float = 25.0
     raise_dwell_s: float = 0.12
     lower_dwell_s: float = 0.30
-    flex_dwell_s: float = 0.08
+    flex_dwell_s: float = 0.03
     min_spin_s: float = 0.15
     charge_s: float = 1.2
     max_straighten_s: float = 0.4

@@ -107,8 +107,8 @@ class PlayerProfile:
     flex_bent_ohm: float = 50000.0
     gyro_bias_dps: float = 1.0  # each gyro axis draws a constant offset within +-this
     noise_scale: float = 1.0  # times the MPU-9250 data-sheet noise densities
-    tremor_deg: float = 0.02  # peak tremor per swing axis, two 8-12 Hz sines of half this each
-    # (upper-arm physiological tremor is this small; 0.5 deg at 10 Hz would be 30 deg/s of gyro)
+    tremor_deg: float = 0.005  # peak tremor per swing axis, two 8-12 Hz sines of half this each
+    # (physiological tremor: at 10 Hz this moves the elbow 26 um and shakes it by 0.1 m/s^2)
     speed: float = 1.0  # > 1: faster movements (every duration divided by it)
 
     def __post_init__(self) -> None:
@@ -364,11 +364,15 @@ class Script:
     # -------------------------------------------------------- segments
 
     def calibration(self) -> tuple[Interval, Interval]:
-        """The wearing calibration: hang still, raise the straight arm forward to level, hold, lower."""
+        """The wearing calibration: hang still, raise the straight arm forward to level, hold, lower.
+
+        The holds are as long as the game asks for (the player's speed does
+        not shorten them); only the movements between them scale with speed.
+        """
         rng, t0 = self.rng(), self.now
-        down = (t0, t0 + self._dur(rng, 2.4, 2.7))
+        down = (t0, t0 + float(rng.uniform(2.4, 2.7)))
         t = self._move(down[1], self._dur(rng, 0.9, 1.3), el=90.0)
-        forward = (t, t + self._dur(rng, 1.9, 2.2))
+        forward = (t, t + float(rng.uniform(1.9, 2.2)))
         t = self._move(forward[1], self._dur(rng, 0.9, 1.3), el=0.0)
         self._finish("calibration", t0, t + self._dur(rng, 0.4, 0.6))
         self.calibration_intervals = (down, forward)

@@ -65,6 +65,19 @@ class Tracking:
         self._last_t = t
         return self._dt
 
+    def refilter(self, samples: Sequence[P.RawSample]) -> list[ArmPose]:
+        """Run these samples again from a fresh start, keeping the learned gyro bias.
+
+        After "hold still" found the bias, the poses of that same hold are worth
+        recomputing: the filter ran through it with the bias uncorrected.
+        """
+        bias = self.filter.get_state().bias
+        self.reset()
+        state = self.filter.get_state()
+        state.bias = bias
+        self.filter.set_state(state)
+        return [self.feed(s) for s in samples]
+
     def hold_still(self, samples: Sequence[P.RawSample]) -> BiasResult:
         """"Hold still": the gyro bias over these samples, given to the filter if they were still."""
         raw = [s for s in samples if isinstance(s, P.RawSample)]

@@ -212,7 +212,7 @@ def test_a_brief_raise_does_nothing(width, expected):
     assert kinds(run(GestureMachine(), track(keys))) == expected
 
 
-@pytest.mark.parametrize("width, expected", [(0.05, []), (0.07, []), (0.12, ["spin", "load"]),
+@pytest.mark.parametrize("width, expected", [(0.01, []), (0.02, []), (0.12, ["spin", "load"]),
                                              (0.3, ["spin", "launch"])])
 def test_a_brief_flex_does_nothing(width, expected):
     machine = GestureMachine()
@@ -227,7 +227,7 @@ def test_a_brief_dip_of_the_arm_does_nothing(width, expected):
     assert kinds(run(machine, continue_from(RAISED, spike(1.5, width, 90.0, 0.0, 1)))) == expected
 
 
-@pytest.mark.parametrize("width, expected", [(0.03, []), (0.06, []), (0.1, ["launch", "reload"])])
+@pytest.mark.parametrize("width, expected", [(0.01, []), (0.02, []), (0.1, ["launch", "reload"])])
 def test_a_brief_unflex_does_nothing(width, expected):
     machine, keys = spinning_machine()
     more = [(t, el, az, f) for t, el, az, f in spike(2.2, width, 90.0, 0.0, 3)]
@@ -252,7 +252,7 @@ def test_launch_aims_where_the_arm_pointed_before_the_wave_not_where_it_jerked()
     aim = events[0].direction
     assert angle_deg(aim, pointing(90, 0)) < 1e-6
     detected = next(s for s in states if s.t == events[0].t)
-    assert angle_deg(detected.pointing, pointing(90, 0)) > 15  # the arm had moved by the detection
+    assert angle_deg(detected.pointing, pointing(90, 0)) > 10  # the arm had moved by the detection
 
 
 def test_launch_aim_follows_an_arm_sweeping_during_the_hold_with_jitter():

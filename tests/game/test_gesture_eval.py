@@ -1,0 +1,85 @@
+"""The gesture evaluation: matching worked by hand, and a short run of the real pipeline."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from game.gesture_eval import TrialResult, _score, board_stream, run_trial, summarise
+from game.gestures import GestureEvent
+from game.motion_model import PlayerProfile, Segment, Session, TrueLaunch, session
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def fake_session() -> Session:
+    launches = [TrueLaunch(10.0, 10.2, (0.0, 1.0, 0.0), 1.0), TrueLaunch(20.0, 20.15, (1.0, 0.0, 0.0), 1.0)]
+    return Session(None, 60.0, launches, [(30.0, 60.0)], None, [Segment("idle", 30.0, 60.0)])
+
+
+def launch(t, direction):
+    return GestureEvent("launch", t, direction, 1.0)
+
+
+def test_matching_worked_by_hand():
+    result = TrialResult(true_launches=2)
+    c, s = np.cos(np.radians(3)), np.sin(np.radians(3))
+    events = [launch(10.25, (s, c, 0.0)),   # 50 ms after the crossing, 3 deg off: a hit
+              launch(12.0, (0.0, 1.0, 0.0)),  # long after any launch, not idle: false
+              launch(40.0, (0.0, 1.0, 0.0))]  # in the idle stretch: false, and idle
+    _score(fake_session(), events, result)
+    assert (result.matched, result.false_launches, result.idle_false_launches) == (1, 2, 1)
+    assert result.latencies_ms == pytest.approx([50.0])
+    assert result.aim_errors_deg == pytest.approx([3.0])
+    assert result.idle_minutes == pytest.approx(0.5)
+    report = summarise([result])
+    assert report["launch_precision"] == pytest.approx(1 / 3, abs=1e-4)
+    assert report["launch_recall"] == 0.5
+    assert report["false_launches_per_min"] == 2.0
+
+
+def test_the_board_stream_arrives_whole():
+    profile = PlayerProfile()
+    script = session(profile, seed=3, gestures=1, idle_s=1.0)
+    samples = board_stream(script, profile, 3)
+    assert len(samples) == round(script.duration_s * 200)
+    assert [s.seq for s in samples[:3]] == [0, 1, 2]
+    # hanging still at the start: the accelerometer feels about 1 g
+    assert 9.0 < np.linalg.norm(samples[10].acc) < 10.6
+
+
+def test_a_short_run_of_the_whole_pipeline_meets_the_targets():
+    results = [run_trial(PlayerProfile(), seed, gestures=4) for seed in (0, 1)]
+    assert all("calibrated" in r.calibration for r in results)
+    report = summarise(results)
+    assert report["launch_precision"] >= 0.99 and report["launch_recall"] >= 0.98
+    assert report["false_launches"] == 0
+    assert report["aim_error_deg_median"] <= 3.0
+    assert report["latency_ms_median"] <= 60.0
+
+
+def energyball(*args):
+    return subprocess.run([sys.executable, "-m", "game", *args], capture_output=True, text=True,
+                          cwd=ROOT, timeout=300)
+
+
+@pytest.mark.parametrize("content, words", [('{"mount_roll": 3}', "unknown key 'mount_roll'"),
+                                            ('{"speed": -1}', "speed must be"),
+                                            ("{not json", "bad JSON")])
+def test_a_bad_profile_is_one_clear_line(tmp_path, content, words):
+    path = tmp_path / "p.json"
+    path.write_text(content)
+    r = energyball("gestures-eval", "--profile", str(path))
+    assert r.returncode != 0 and "Traceback" not in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and words in r.stderr
+
+
+def test_gestures_eval_json_shape():
+    r = energyball("gestures-eval", "--trials", "1", "--gestures", "2", "--json")
+    assert r.returncode == 0, r.stderr
+    report = json.loads(r.stdout)
+    assert {"launch_precision", "launch_recall", "false_launches_per_min", "latency_ms_median",
+            "latency_ms_p95", "aim_error_deg_median", "aim_error_deg_p95", "trials"} <= set(report)
