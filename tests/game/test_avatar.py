@@ -54,11 +54,12 @@ def test_arm_forward_elbow_at_90_paper45_follows_unity_euler():
     assert s.wrist - s.elbow == pytest.approx(forearm.apply([0, 0, -0.27]), abs=1e-12)
 
 
-def test_right_arm_raised_sideways():
-    s = posed(Rotation.from_euler("y", -90, degrees=True))
+@pytest.mark.parametrize("mounting", ["aligned", "paper45"])
+def test_right_arm_raised_sideways(mounting):
+    s = posed(Rotation.from_euler("y", -90, degrees=True), mounting=mounting)
     assert s.pointing == pytest.approx([1, 0, 0], abs=1e-12)
     assert s.elevation_deg == pytest.approx(90)
-    left = posed(Rotation.from_euler("y", 90, degrees=True), side="left")
+    left = posed(Rotation.from_euler("y", 90, degrees=True), side="left", mounting=mounting)
     assert left.pointing == pytest.approx([-1, 0, 0], abs=1e-12)
     assert left.shoulder[0] < 0 < s.shoulder[0]  # each arm on its own side
 
