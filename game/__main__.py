@@ -1,8 +1,9 @@
 """``energyball``: the game's command line (also ``python -m game``).
 
-``energyball`` plays (the game lands with the game issue; until then it says
-so); ``energyball gestures-eval`` measures the gesture recognition on
-simulated players through the whole pipeline.
+``energyball`` plays (``--keyboard``, ``--virtual``, ``--port P``);
+``shots`` renders every screen to PNG, ``bench`` measures frame time and
+input latency, ``gestures-eval`` measures gesture recognition on simulated
+players through the whole pipeline.
 """
 
 from __future__ import annotations
@@ -17,12 +18,46 @@ class UsageError(Exception):
     """A command line or input file that cannot be used, worded for the user."""
 
 
+HEADLESS_HELP = ("energyball: no display found, so the game window cannot open.\n"
+                 "  Run it on a desktop, or headless:\n"
+                 "    SDL_VIDEODRIVER=dummy energyball shots --out shots   (every screen to PNG)\n"
+                 "    energyball gestures-eval                            (gesture accuracy, simulated)\n"
+                 "    energyball bench                                    (frame time and input latency)")
+
+
+def _input_choice(args: argparse.Namespace) -> str | None:
+    if args.keyboard:
+        return "keyboard"
+    if args.virtual:
+        return "virtual"
+    return args.port
+
+
 def cmd_play(args: argparse.Namespace) -> int:
-    print("EnergyBall: the game is not built yet. The tracker is: try\n"
-          "  armtracker monitor --virtual     (a virtual board on a pty)\n"
-          "  armtracker monitor               (your board, found by USB id)\n"
-          "  energyball gestures-eval         (gesture recognition on simulated players)",
-          file=sys.stderr)
+    from .app import display_available
+    if not display_available():
+        print(HEADLESS_HELP, file=sys.stderr)
+        return 1
+    import pygame
+    from .app import App
+    try:
+        app = App(input_choice=_input_choice(args), seed=args.seed)
+    except pygame.error as e:
+        raise UsageError(f"cannot open the game window ({e}); for headless use see `energyball shots --help`")
+    return app.run()
+
+
+def cmd_shots(args: argparse.Namespace) -> int:
+    from .showcase import shots
+    for path in shots(args.out):
+        print(f"wrote {path}", file=sys.stderr)
+    return 0
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    from .showcase import bench
+    report = bench(progress=lambda text: print(text, file=sys.stderr, flush=True))
+    print(json.dumps(report) if args.json else "\n".join(f"{k:26s} {v}" for k, v in report.items()))
     return 0
 
 
@@ -52,9 +87,17 @@ def _positive(text: str) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="energyball", description="The EnergyBall game.")
+    parser = argparse.ArgumentParser(prog="energyball", description=(
+        "The EnergyBall game: throw energy balls at zombies with your arm (a tracker board, "
+        "or keyboard and mouse)."))
     parser.set_defaults(func=cmd_play)
+    source = parser.add_mutually_exclusive_group()
+    source.add_argument("--keyboard", action="store_true", help="play with keyboard and mouse")
+    source.add_argument("--virtual", action="store_true", help="play with a virtual board (simulated arm)")
+    source.add_argument("--port", help="the board's serial port or pyserial URL (default: find one)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the zombie waves")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
     p = sub.add_parser("gestures-eval", help="measure gesture recognition on simulated players")
     p.add_argument("--trials", type=_positive, default=20, help="simulated sessions (20)")
     p.add_argument("--gestures", type=_positive, default=10, help="gestures per session (10)")
@@ -62,6 +105,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--profile", metavar="FILE.json", help="the simulated player (README lists the keys)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_gestures_eval)
+
+    p = sub.add_parser("shots", help="render every screen to PNG (dummy video driver)")
+    p.add_argument("--out", required=True, metavar="DIR")
+    p.set_defaults(func=cmd_shots)
+
+    p = sub.add_parser("bench", help="frame time and input latency")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_bench)
     return parser
 
 

@@ -111,6 +111,8 @@ class VirtualBoard:
         self.link = Path(link) if link else Path(self._tmpdir.name) / "ttyVIRTUAL"
         self.counters = BoardCounters()
         self.sent: deque[P.RawSample | P.FusedSample] = deque(maxlen=self.settings.keep_sent or None)
+        # (seq, time.monotonic() just after the bytes were written), for latency measurements
+        self.sent_at: deque[tuple[int, float]] = deque(maxlen=self.settings.keep_sent or None)
         self._rng = random.Random(self.faults.seed)
         self._lock = threading.RLock()
         self._fds: tuple[int, int] | None = None
@@ -285,6 +287,9 @@ class VirtualBoard:
         st.next_sample = max(st.next_sample, due)
         if chunk:
             self._send(bytes(chunk))
+            if self.settings.keep_sent:
+                now = time.monotonic()
+                self.sent_at.extend((self.sent[-k].seq, now) for k in range(due - first, 0, -1))
 
     def _sample_bytes(self, t: float, r: SensorReading) -> bytes:
         st, s = self._state, self.settings

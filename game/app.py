@@ -1,0 +1,619 @@
+"""The game's screens and main loop (pygame).
+
+Screens: title menu, guided calibration, play, pause, game over with high
+scores, settings. Each is a small class with ``handle(event)``,
+``update(dt)`` and ``draw(surface)``; they return the next screen (or None to
+stay). :class:`App` owns the window and everything the screens share, and
+:meth:`App.frame` advances one frame from a list of events, so tests drive
+the real app with injected events under the dummy video driver.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from dataclasses import dataclass, field
+from typing import Callable, Protocol
+
+import pygame
+
+from tracker.link import LinkSettings, find_boards
+
+from .arena import Arena
+from .arena_model import Controls
+from .audio import Audio
+from .avatar import Avatar, BodySettings, Wearing
+from .controls import KeyboardMouse, TrackerInput
+from .gestures import GestureMachine, GestureSettings
+from .pose import ArmPose
+from .preferences import Preferences, Score, add_score, load_preferences, load_scores, save_preferences
+from .render import Renderer
+from .wearing import arm_down, arm_down_then_forward, recenter
+
+WINDOW = (1280, 720)
+HOLD_S = {"down": 2.5, "forward": 2.0}
+GET_READY_S = 2.0
+BOARD_SCAN_S = 2.0
+WHITE, RED, GREEN, YELLOW = (240, 240, 240), (230, 70, 60), (90, 220, 120), (250, 210, 80)
+
+
+class Screen(Protocol):
+    def handle(self, event: pygame.event.Event) -> "Screen | None": ...
+    def update(self, dt: float) -> "Screen | None": ...
+    def draw(self, surface: pygame.Surface) -> None: ...
+
+
+# ----------------------------------------------------------------- shared state
+
+
+@dataclass
+class Game:
+    """Everything the screens share: input, avatar, gestures, arena, audio, renderer, files."""
+
+    prefs: Preferences
+    audio: Audio
+    renderer: Renderer
+    keyboard: KeyboardMouse = field(default_factory=KeyboardMouse)
+    tracker: TrackerInput | None = None
+    arena: Arena = field(default_factory=Arena)
+    gestures: GestureMachine = field(default_factory=GestureMachine)
+    avatar: Avatar = field(default_factory=Avatar)
+    scores: list[Score] = field(default_factory=list)
+    notices: list[str] = field(default_factory=list)
+    calibrated: bool = False
+    show_plots: bool = False
+    fps: float = 0.0
+    board_offer: str | None = None  # a board plugged in while on keyboard
+    seed: int = 0
+    config_dir: object = None
+
+    # -------------------------------------------------------- input
+
+    @property
+    def source(self) -> str:
+        return "board" if self.tracker else "keyboard"
+
+    def pose(self, dt: float) -> ArmPose:
+        """This frame's arm pose from the active source."""
+        if self.tracker:
+            pose = self.tracker.poll()
+            if pose is not None:
+                return pose
+        return self.keyboard.update(dt)
+
+    def use_board(self, port: str | None, virtual: bool = False) -> None:
+        """Switch to a board (a port, or a virtual one) read in the background."""
+        if virtual:
+            from tracker.board import VirtualBoard
+            self._virtual = VirtualBoard().start()
+            port = self._virtual.port
+        self.close_board()
+        self.tracker = TrackerInput(LinkSettings(port))
+        self.calibrated = False
+        self.avatar.wearing = Wearing()
+
+    def use_keyboard(self) -> None:
+        self.close_board()
+        self.avatar.wearing = Wearing()
+        self.calibrated = True  # keyboard poses are made for the ideal wearing
+
+    def close_board(self) -> None:
+        if self.tracker:
+            self.tracker.close()
+            self.tracker = None
+
+    def link_lost(self) -> bool:
+        """A board was connected and is not now (cable pulled)."""
+        return bool(self.tracker and self.tracker.opened.is_set() and self.tracker.error is None
+                    and not self.tracker.connected)
+
+    # -------------------------------------------------------- the round
+
+    def new_round(self) -> None:
+        self.arena = Arena(seed=self.seed)
+        self.gestures = GestureMachine(self.gesture_settings())
+        self.avatar = Avatar(BodySettings(side=self.prefs.side), self.avatar.wearing)
+
+    def gesture_settings(self) -> GestureSettings:
+        p = self.prefs
+        return GestureSettings(raise_deg=p.raise_deg, lower_deg=min(35.0, p.raise_deg - 10.0),
+                               flex_on_deg=p.flex_on_deg, flex_off_deg=p.flex_off_deg)
+
+    def hud(self) -> dict:
+        health = self.tracker.health() if self.tracker else None
+        link = ("keyboard + mouse" if not self.tracker else
+                self.tracker.status if health is None else
+                f"board {health.rate_hz:.0f} Hz, loss {100 * health.loss:.1f}%")
+        return {"score": self.arena.score, "wave": self.arena.wave, "health": self.arena.player.health,
+                "ball": self.gestures.state.value, "charge": self.gestures.charge, "input": link,
+                "calibrated": self.calibrated, "fps": self.fps,
+                "notice": f"board found on {self.board_offer}: press B to use it" if self.board_offer else ""}
+
+
+# ----------------------------------------------------------------- screens
+
+
+@dataclass
+class Menu:
+    game: Game
+    items: tuple[str, ...] = ("Play", "Calibrate", "Settings", "Quit")
+    selected: int = 0
+
+    def handle(self, event: pygame.event.Event) -> Screen | None:
+        if event.type != pygame.KEYDOWN:
+            return None
+        if event.key in (pygame.K_UP, pygame.K_w):
+            self.selected = (self.selected - 1) % len(self.items)
+        elif event.key in (pygame.K_DOWN, pygame.K_s):
+            self.selected = (self.selected + 1) % len(self.items)
+        elif event.key in (pygame.K_RETURN, pygame.K_SPACE):
+            self.game.audio.play("click")
+            return self.choose(self.items[self.selected])
+        elif event.key == pygame.K_ESCAPE:
+            return Quit()
+        return None
+
+    def choose(self, item: str) -> Screen:
+        if item == "Play":
+            if not self.game.calibrated:
+                return Calibration(self.game, then_play=True)
+            self.game.new_round()
+            return Play(self.game)
+        if item == "Calibrate":
+            return Calibration(self.game, then_play=False)
+        if item == "Settings":
+            return Settings(self.game)
+        return Quit()
+
+    def update(self, dt: float) -> Screen | None:
+        return None
+
+    def draw(self, surface: pygame.Surface) -> None:
+        r = self.game.renderer
+        r.draw_world(surface, self.game.arena, self.game.avatar, 0.0)
+        r.draw_title(surface, "ENERGYBALL", "raise your arm, flex, snap it straight")
+        r.draw_menu(surface, list(self.items), self.selected, surface.get_height() // 2)
+        lines = [f"input: {self.game.hud()['input']}", *self.game.notices[-2:]]
+        r.draw_panel(surface, lines, pygame.Rect(20, surface.get_height() - 90, 700, 70))
+
+
+@dataclass
+class Calibration:
+    """Guided wearing calibration: arm down (and gyro bias), then arm forward."""
+
+    game: Game
+    then_play: bool
+    step: str = "down"  # "down", "forward", "done", "failed"
+    clock: float = -GET_READY_S  # negative: getting ready
+    poses: dict[str, list[ArmPose]] = field(default_factory=lambda: {"down": [], "forward": []})
+    message: str = ""
+
+    def instruction(self) -> str:
+        keyboard = self.game.tracker is None
+        if self.step == "down":
+            return "Hold your arm straight down, still" + (" (keyboard: leave R up)" if keyboard else "")
+        if self.step == "forward":
+            return "Raise your arm straight forward to shoulder height" + (" (keyboard: hold R)" if keyboard else "")
+        return self.message
+
+    def handle(self, event: pygame.event.Event) -> Screen | None:
+        if event.type == pygame.KEYDOWN:
+            if event.key == pygame.K_ESCAPE:
+                return Menu(self.game)
+            if event.key == pygame.K_r and self.step == "failed":
+                return Calibration(self.game, self.then_play)
+            if event.key in (pygame.K_RETURN, pygame.K_SPACE) and self.step == "done":
+                return self.finish()
+        return None
+
+    def finish(self) -> Screen:
+        if self.then_play:
+            self.game.new_round()
+            return Play(self.game)
+        return Menu(self.game)
+
+    def update(self, dt: float) -> Screen | None:
+        game = self.game
+        pose = game.pose(dt)
+        game.avatar.update(pose)
+        if self.step not in HOLD_S:
+            return None
+        self.clock += dt
+        if self.clock >= 0:
+            self.poses[self.step].append(pose)
+        if self.clock >= HOLD_S[self.step]:
+            self.complete_step()
+        return None
+
+    def complete_step(self) -> None:
+        game = self.game
+        if self.step == "down":
+            if game.tracker:
+                bias = game.tracker.tracking.hold_still(list(game.tracker.recent)[-int(HOLD_S["down"] * 200):])
+                if not bias.ok:
+                    return self.fail(bias.message)
+            result = arm_down(game.avatar, self.poses["down"])
+            if not result.ok:
+                return self.fail(result.message)
+            game.avatar.wearing = result.wearing
+            self.step, self.clock = "forward", -GET_READY_S
+            game.audio.play("click")
+            return None
+        result = arm_down_then_forward(game.avatar, self.poses["down"], self.poses["forward"])
+        if not result.ok:
+            return self.fail(result.message)
+        game.avatar.wearing = result.wearing
+        game.calibrated = True
+        self.step, self.message = "done", "Calibrated! Press Enter."
+        game.audio.play("wave")
+        return None
+
+    def fail(self, message: str) -> None:
+        self.step, self.message = "failed", f"{message}. R: try again, Esc: back"
+        self.game.audio.play("miss")
+
+    def draw(self, surface: pygame.Surface) -> None:
+        r = self.game.renderer
+        r.draw_world(surface, self.game.arena, self.game.avatar, 0.0)
+        w, h = surface.get_size()
+        r.draw_arm_view(surface, self.game.avatar, pygame.Rect(w - 340, 80, 320, 240))
+        if self.step in HOLD_S:
+            left = -self.clock if self.clock < 0 else HOLD_S[self.step] - self.clock
+            r.draw_countdown(surface, left, ("Get ready: " if self.clock < 0 else "Hold: ") + self.instruction())
+        else:
+            r.draw_banner(surface, self.instruction(), GREEN if self.step == "done" else RED)
+
+
+@dataclass
+class Play:
+    game: Game
+
+    def handle(self, event: pygame.event.Event) -> Screen | None:
+        game = self.game
+        kb = game.keyboard
+        if event.type == pygame.KEYDOWN:
+            if event.key in (pygame.K_ESCAPE, pygame.K_p):
+                return Pause(game, "Paused")
+            if event.key == pygame.K_F1:
+                game.show_plots = not game.show_plots
+            if event.key == pygame.K_c and game.tracker:
+                game.avatar.wearing = recenter(game.avatar, game.pose(0.0))
+            if event.key == pygame.K_b and game.board_offer:
+                game.use_board(game.board_offer)
+                game.board_offer = None
+                return Calibration(game, then_play=True)
+        if event.type in (pygame.KEYDOWN, pygame.KEYUP):
+            down = event.type == pygame.KEYDOWN
+            if event.key == pygame.K_r:
+                kb.raised = down
+            elif event.key in (pygame.K_f, pygame.K_SPACE):
+                kb.flexed = down
+        if event.type in (pygame.MOUSEBUTTONDOWN, pygame.MOUSEBUTTONUP):
+            down = event.type == pygame.MOUSEBUTTONDOWN
+            if event.button == 3:
+                kb.raised = down
+            elif event.button == 1:
+                kb.flexed = down
+        if event.type == pygame.MOUSEMOTION:
+            w, h = pygame.display.get_surface().get_size() if pygame.display.get_surface() else WINDOW
+            kb.aim_x = 2.0 * event.pos[0] / w - 1.0
+            kb.aim_y = 1.0 - 2.0 * event.pos[1] / h
+        return None
+
+    def update(self, dt: float) -> Screen | None:
+        game = self.game
+        if game.link_lost():
+            return Pause(game, "The board went away (cable pulled?). Plug it back in: the game waits.",
+                         resume_when=lambda: not game.link_lost())
+        arena = game.arena
+        game.avatar.position = (arena.player.x, arena.player.y)
+        game.avatar.body_yaw = arena.player.yaw
+        state = game.avatar.update(game.pose(dt))
+        for event in game.gestures.update(state):
+            if event.kind == "launch":
+                arena.launch(tuple(state.hand), event.direction, event.charge)
+        arena.hold(*held_ball(game, state))
+        events = arena.advance(dt, movement())
+        game.renderer.react(events)
+        sounds(game, events)
+        if arena.game_over:
+            return GameOver(game)
+        return None
+
+    def draw(self, surface: pygame.Surface) -> None:
+        game = self.game
+        game.renderer.draw_world(surface, game.arena, game.avatar, 1.0 / max(game.fps, 30.0))
+        game.renderer.draw_hud(surface, game.hud())
+        if game.show_plots and game.tracker:
+            w, h = surface.get_size()
+            game.renderer.draw_plots(surface, game.tracker.plots.series(), pygame.Rect(w - 420, h - 330, 400, 300))
+
+
+def held_ball(game: Game, state) -> tuple[tuple[float, float, float], str, float]:
+    """Where the ball in the hand is drawn for the gesture state (seed 000 Fig. 1)."""
+    g = game.gestures
+    kind = g.state.value
+    if kind == "idle":  # at the shoulder
+        x, y, z = state.shoulder
+        return (float(x), float(y), float(z) + 0.25), kind, 0.0
+    hx, hy, hz = state.hand
+    if kind == "loading":  # floats up from the ground to the hand
+        sx, sy, _ = state.shoulder
+        up = g.progress
+        return (float(sx + (hx - sx) * up), float(sy + (hy - sy) * up), float(hz * up + 0.1)), kind, 0.0
+    return (float(hx), float(hy), float(hz) + 0.12), kind, g.charge
+
+
+def movement() -> Controls:
+    """WASD walks, Q/E or the arrow keys turn."""
+    keys = pygame.key.get_pressed()
+    forward = (keys[pygame.K_w] or keys[pygame.K_UP]) - (keys[pygame.K_s] or keys[pygame.K_DOWN])
+    strafe = keys[pygame.K_d] - keys[pygame.K_a]
+    turn = (keys[pygame.K_q] or keys[pygame.K_LEFT]) - (keys[pygame.K_e] or keys[pygame.K_RIGHT])
+    return Controls(float(forward), float(strafe), float(turn))
+
+
+def sounds(game: Game, events) -> None:
+    names = {"launch": "launch", "hit": "hit", "miss": "miss", "hurt": "hurt", "wave": "wave",
+             "game_over": "game_over"}
+    for e in events:
+        if e.kind == "spawn":
+            game.audio.play_variant("groan")
+        elif e.kind in names:
+            game.audio.play(names[e.kind])
+
+
+@dataclass
+class Pause:
+    game: Game
+    reason: str
+    resume_when: Callable[[], bool] | None = None
+
+    def handle(self, event: pygame.event.Event) -> Screen | None:
+        if event.type == pygame.KEYDOWN:
+            if event.key in (pygame.K_ESCAPE, pygame.K_p) and self.resume_when is None:
+                return Play(self.game)
+            if event.key == pygame.K_q:
+                return Menu(self.game)
+            if event.key == pygame.K_k and self.resume_when is not None:
+                self.game.use_keyboard()
+                return Play(self.game)
+        return None
+
+    def update(self, dt: float) -> Screen | None:
+        self.game.pose(dt)  # keep reading the link
+        if self.resume_when is not None and self.resume_when():
+            return Play(self.game)
+        return None
+
+    def draw(self, surface: pygame.Surface) -> None:
+        r = self.game.renderer
+        r.draw_world(surface, self.game.arena, self.game.avatar, 0.0)
+        r.draw_hud(surface, self.game.hud())
+        r.draw_banner(surface, self.reason, YELLOW)
+        keys = "K: play on keyboard, Q: menu" if self.resume_when else "Esc: resume, Q: menu"
+        w, h = surface.get_size()
+        r.draw_panel(surface, [keys], pygame.Rect(w // 2 - 200, h // 2 + 60, 400, 40))
+
+
+@dataclass
+class GameOver:
+    game: Game
+    rank: int | None = None
+
+    def __post_init__(self) -> None:
+        game = self.game
+        entry = Score(game.prefs.player, int(game.arena.score), int(game.arena.wave))
+        try:
+            game.scores, self.rank = add_score(game.scores, entry, game.config_dir)
+        except OSError as e:
+            game.notices.append(f"could not save the high scores: {e}")
+
+    def handle(self, event: pygame.event.Event) -> Screen | None:
+        if event.type == pygame.KEYDOWN and event.key in (pygame.K_RETURN, pygame.K_SPACE, pygame.K_ESCAPE):
+            return Menu(self.game)
+        return None
+
+    def update(self, dt: float) -> Screen | None:
+        return None
+
+    def draw(self, surface: pygame.Surface) -> None:
+        game = self.game
+        r = game.renderer
+        r.draw_world(surface, game.arena, game.avatar, 0.0)
+        r.draw_banner(surface, f"GAME OVER  -  score {int(game.arena.score)}, wave {game.arena.wave}", RED)
+        lines = [("> " if i == self.rank else "  ") + f"{i + 1:2d}. {s.name:12s} {s.score:7d}  wave {s.wave}"
+                 for i, s in enumerate(game.scores)]
+        w, h = surface.get_size()
+        r.draw_panel(surface, ["HIGH SCORES", *lines, "", "Enter: menu"], pygame.Rect(w // 2 - 230, h // 2 + 50, 460, 300))
+
+
+@dataclass
+class Settings:
+    game: Game
+    selected: int = 0
+    items: tuple[str, ...] = ("Input", "Arm", "Launch flex", "Volume", "Music", "Fullscreen", "Back")
+
+    def values(self) -> list[str]:
+        p = self.game.prefs
+        return [p.input, p.side, f"{p.flex_on_deg:.0f} / {p.flex_off_deg:.0f} deg", f"{p.volume:.1f}",
+                f"{p.music_volume:.1f}", "on" if p.fullscreen else "off", ""]
+
+    def handle(self, event: pygame.event.Event) -> Screen | None:
+        if event.type != pygame.KEYDOWN:
+            return None
+        if event.key in (pygame.K_UP, pygame.K_w):
+            self.selected = (self.selected - 1) % len(self.items)
+        elif event.key in (pygame.K_DOWN, pygame.K_s):
+            self.selected = (self.selected + 1) % len(self.items)
+        elif event.key in (pygame.K_LEFT, pygame.K_RIGHT, pygame.K_a, pygame.K_d):
+            self.change(1 if event.key in (pygame.K_RIGHT, pygame.K_d) else -1)
+        elif event.key == pygame.K_ESCAPE or (event.key == pygame.K_RETURN and self.items[self.selected] == "Back"):
+            return self.leave()
+        return None
+
+    def change(self, step: int) -> None:
+        game, p = self.game, self.game.prefs
+        item = self.items[self.selected]
+        if item == "Input":
+            choices = ["auto", "keyboard", "virtual", *[b.device for b in find_boards()]]
+            current = choices.index(p.input) if p.input in choices else 0
+            p = _replace(p, input=choices[(current + step) % len(choices)])
+        elif item == "Arm":
+            p = _replace(p, side="left" if p.side == "right" else "right")
+        elif item == "Launch flex":
+            p = _replace(p, flex_on_deg=min(120.0, max(p.flex_off_deg + 10, p.flex_on_deg + 5 * step)))
+        elif item == "Volume":
+            p = _replace(p, volume=round(min(1.0, max(0.0, p.volume + 0.1 * step)), 1))
+        elif item == "Music":
+            p = _replace(p, music_volume=round(min(1.0, max(0.0, p.music_volume + 0.1 * step)), 1))
+        elif item == "Fullscreen":
+            p = _replace(p, fullscreen=not p.fullscreen)
+            pygame.display.toggle_fullscreen() if pygame.display.get_surface() else None
+        game.prefs = p
+        game.audio.set_volume(p.volume)
+        game.audio.set_music_volume(p.music_volume)
+
+    def leave(self) -> Screen:
+        game = self.game
+        try:
+            save_preferences(game.prefs, game.config_dir)
+        except OSError as e:
+            game.notices.append(f"could not save the settings: {e}")
+        apply_input(game)
+        game.avatar = Avatar(BodySettings(side=game.prefs.side), game.avatar.wearing)
+        return Menu(game)
+
+    def update(self, dt: float) -> Screen | None:
+        return None
+
+    def draw(self, surface: pygame.Surface) -> None:
+        r = self.game.renderer
+        r.draw_world(surface, self.game.arena, self.game.avatar, 0.0)
+        r.draw_title(surface, "SETTINGS", "up/down: choose, left/right: change, Esc: save and back")
+        labels = [f"{name}: {value}" if value else name for name, value in zip(self.items, self.values())]
+        r.draw_menu(surface, labels, self.selected, surface.get_height() // 3)
+
+
+def _replace(prefs: Preferences, **changes: object) -> Preferences:
+    from dataclasses import replace
+    return replace(prefs, **changes)
+
+
+class Quit:
+    """The screen that ends the loop."""
+
+    def handle(self, event: pygame.event.Event) -> None:
+        return None
+
+    def update(self, dt: float) -> None:
+        return None
+
+    def draw(self, surface: pygame.Surface) -> None:
+        return None
+
+
+# ----------------------------------------------------------------- input choice
+
+
+def apply_input(game: Game) -> None:
+    """Open the input source the preferences name; a board that is not there means keyboard."""
+    choice = game.prefs.input
+    if choice == "keyboard":
+        game.use_keyboard()
+    elif choice == "virtual":
+        game.use_board(None, virtual=True)
+    elif choice == "auto":
+        boards = find_boards()
+        if boards:
+            game.use_board(boards[0].device)
+        else:
+            game.use_keyboard()
+            game.notices.append("no board found: playing on keyboard and mouse (R raise, F flex, mouse aims)")
+    else:
+        game.use_board(choice)
+
+
+# ----------------------------------------------------------------- the app
+
+
+class App:
+    """The window, the clock and the current screen."""
+
+    def __init__(self, prefs: Preferences | None = None, input_choice: str | None = None,
+                 config_dir: object = None, seed: int = 0, size: tuple[int, int] = WINDOW) -> None:
+        pygame.init()
+        loaded, notice = load_preferences(config_dir) if prefs is None else (prefs, "")
+        if input_choice:
+            loaded = _replace(loaded, input=input_choice)
+        flags = pygame.RESIZABLE | (pygame.FULLSCREEN if loaded.fullscreen else 0)
+        self.surface = pygame.display.set_mode(size, flags)
+        pygame.display.set_caption("EnergyBall")
+        audio = Audio(volume=loaded.volume, music_volume=loaded.music_volume)
+        scores, score_notice = load_scores(config_dir)
+        self.game = Game(loaded, audio, Renderer(self.surface.get_size()), scores=scores,
+                         seed=seed, config_dir=config_dir)
+        self.game.notices += [n for n in (notice, score_notice, audio.notice) if n]
+        apply_input(self.game)
+        self.game.new_round()
+        self.screen: Screen = Menu(self.game)
+        self.clock = pygame.time.Clock()
+        self._scan = 0.0
+        audio.music(True)
+
+    @property
+    def running(self) -> bool:
+        return not isinstance(self.screen, Quit)
+
+    def frame(self, events: list[pygame.event.Event], dt: float) -> None:
+        """One frame: events, logic, drawing."""
+        game = self.game
+        for event in events:
+            if event.type == pygame.QUIT:
+                self.screen = Quit()
+                return
+            if event.type == pygame.KEYDOWN and event.key == pygame.K_F11:
+                pygame.display.toggle_fullscreen()
+            nxt = self.screen.handle(event)
+            if nxt is not None:
+                self.screen = nxt
+        nxt = self.screen.update(dt)
+        if nxt is not None:
+            self.screen = nxt
+        self._offer_board(dt)
+        game.fps = 0.9 * game.fps + 0.1 * (1.0 / dt) if dt > 0 else game.fps
+        self.surface = pygame.display.get_surface() or self.surface
+        self.screen.draw(self.surface)
+
+    def _offer_board(self, dt: float) -> None:
+        """On keyboard, look for a board now and then; offer to switch to it."""
+        game = self.game
+        self._scan += dt
+        if game.tracker or self._scan < BOARD_SCAN_S:
+            return
+        self._scan = 0.0
+        boards = find_boards()
+        game.board_offer = boards[0].device if boards else None
+
+    def run(self) -> int:
+        """The main loop, until the window closes or the player quits."""
+        while self.running:
+            dt = self.clock.tick(120) / 1000.0
+            self.frame(pygame.event.get(), min(dt, 0.1))
+            pygame.display.flip()
+        self.close()
+        return 0
+
+    def close(self) -> None:
+        self.game.close_board()
+        self.game.audio.close()
+        pygame.quit()
+
+
+def display_available() -> bool:
+    """Whether a window can open here (or the dummy driver was asked for)."""
+    if os.environ.get("SDL_VIDEODRIVER"):
+        return True
+    if sys.platform.startswith("linux"):
+        return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    return True

@@ -1,0 +1,160 @@
+"""Screenshots of every screen, and the game's benchmarks (frame time, input latency).
+
+Both run the real app under SDL's dummy video driver (no window needed), with
+a throwaway settings folder so the player's own files are never touched.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import statistics
+import tempfile
+import time
+from pathlib import Path
+from typing import Callable
+
+os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
+
+import numpy as np  # noqa: E402
+import pygame  # noqa: E402
+
+from .app import App, Calibration, GameOver, Menu, Pause, Play, Settings  # noqa: E402
+from .arena_model import Controls, Zombie, ZombieState  # noqa: E402
+from .preferences import Preferences  # noqa: E402
+
+SIZE = (1280, 720)
+
+
+def _app(folder: str) -> App:
+    return App(Preferences(input="keyboard"), config_dir=Path(folder), seed=7, size=SIZE)
+
+
+def _key(key: int, down: bool = True) -> pygame.event.Event:
+    return pygame.event.Event(pygame.KEYDOWN if down else pygame.KEYUP, key=key, mod=0, unicode="")
+
+
+def busy_arena(app: App, zombies: int = 60, balls: int = 3, seed: int = 1) -> None:
+    """A mid-wave scene: a ring of zombies, some blown into the air, balls in flight."""
+    arena = app.game.arena
+    rng = np.random.default_rng(seed)
+    arena.zombies = []
+    for i in range(zombies):
+        r, a = rng.uniform(4, 16), rng.uniform(0, 2 * math.pi)
+        z = Zombie(i, r * math.cos(a), r * math.sin(a), speed=rng.uniform(0.6, 1.1), health=1,
+                   phase=rng.uniform(0, 6.3), heading=a + math.pi)
+        if i % 12 == 0:  # a few already blown into the sky
+            z.state, z.z, z.velocity, z.spin_rate = ZombieState.FLYING, rng.uniform(2, 6), (0.0, 2.0, 6.0), 5.0
+        arena.zombies.append(z)
+    for k in range(balls):
+        direction = (math.sin(0.4 * (k - 1)), math.cos(0.4 * (k - 1)), 0.05)
+        arena.launch((0.3, 0.5 + 2.0 * k, 1.4), direction, 0.4 + 0.3 * k)
+    for _ in range(8):  # give the balls trails
+        arena.step(Controls())
+
+
+def _raise_and_spin(app: App) -> None:
+    kb = app.game.keyboard
+    kb.raised, kb.flexed, kb.aim_x = True, True, 0.15
+    for _ in range(60):
+        app.frame([], 1 / 60)
+
+
+def shots(out: str | os.PathLike) -> list[Path]:
+    """Render menu, calibration, play, pause, game over and settings to PNG files in ``out``."""
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    written = []
+    with tempfile.TemporaryDirectory() as config:
+        app = _app(config)
+
+        def save(name: str) -> None:
+            app.screen.draw(app.surface)
+            path = folder / f"{name}.png"
+            pygame.image.save(app.surface, str(path))
+            written.append(path)
+
+        app.frame([], 1 / 60)
+        save("menu")
+        app.screen = Calibration(app.game, then_play=False)
+        app.game.keyboard.raised = False
+        for _ in range(150):
+            app.frame([], 1 / 60)
+        save("calibration")
+        app.game.new_round()
+        app.screen = Play(app.game)
+        busy_arena(app, zombies=24)
+        _raise_and_spin(app)
+        save("play")
+        app.screen = Pause(app.game, "Paused")
+        save("pause")
+        app.game.arena.score = 4200
+        app.game.arena.player.health = 0.0
+        app.screen = GameOver(app.game)
+        save("game_over")
+        app.screen = Settings(app.game)
+        save("settings")
+        app.screen = Menu(app.game)
+        app.close()
+    return written
+
+
+def bench(frames: int = 300, progress: Callable[[str], None] | None = None) -> dict:
+    """Frame time with a busy arena, and input latency from a virtual board."""
+    with tempfile.TemporaryDirectory() as config:
+        app = _app(config)
+        app.game.new_round()
+        app.screen = Play(app.game)
+        busy_arena(app)
+        _raise_and_spin(app)
+        times = []
+        for i in range(frames):
+            start = time.perf_counter()
+            app.frame([], 1 / 60)
+            if i % 40 == 0:  # keep the scene busy: more balls, zombies back in
+                busy_arena(app, seed=i)
+            times.append(1000 * (time.perf_counter() - start))
+        if progress:
+            progress(f"frame time: {len(times)} frames measured")
+        latency = input_latency(app, progress)
+        app.close()
+    return {"frame_ms_median": round(statistics.median(times), 3),
+            "frame_ms_p95": round(float(np.percentile(times, 95)), 3), **latency}
+
+
+def input_latency(app: App, progress: Callable[[str], None] | None, seconds: float = 5.0) -> dict:
+    """From a sample's write on the virtual board's side of the pty to the first frame drawn with it."""
+    from tracker.board import BoardSettings, VirtualBoard
+    from tracker.link import LinkSettings
+    from .controls import TrackerInput
+
+    with VirtualBoard(settings=BoardSettings(rate_hz=200, keep_sent=10_000)) as board:
+        tracker = TrackerInput(LinkSettings(board.port))
+        tracker.opened.wait(5.0)
+        app.game.tracker = tracker
+        drawn: dict[int, float] = {}
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            app.frame([], 1 / 240)
+            pygame.display.flip()
+            now = time.monotonic()
+            if tracker.last_seq is not None:
+                drawn.setdefault(tracker.last_seq, now)
+        sent = dict(board.sent_at)
+        tracker.close()
+        app.game.tracker = None
+    # A frame shows every sample up to the newest it used: each sample's first frame.
+    frames = sorted(drawn.items())
+    latencies = []
+    first_frame = min(drawn.values(), default=math.inf)
+    for seq, t_write in sorted(sent.items()):
+        if t_write < first_frame:  # written before the link was up (the handshake)
+            continue
+        shown = next((t for s, t in frames if s >= seq), None)
+        if shown is not None and shown >= t_write:
+            latencies.append(1000 * (shown - t_write))
+    if progress:
+        progress(f"input latency: {len(latencies)} samples measured")
+    return {"input_latency_ms_median": round(statistics.median(latencies), 3) if latencies else None,
+            "input_latency_ms_p99": round(float(np.percentile(latencies, 99)), 3) if latencies else None}
