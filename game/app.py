@@ -197,6 +197,7 @@ class Calibration:
         return self.message
 
     def handle(self, event: pygame.event.Event) -> Screen | None:
+        arm_input(self.game.keyboard, event)
         if event.type == pygame.KEYDOWN:
             if event.key == pygame.K_ESCAPE:
                 return Menu(self.game)
@@ -270,7 +271,6 @@ class Play:
 
     def handle(self, event: pygame.event.Event) -> Screen | None:
         game = self.game
-        kb = game.keyboard
         if event.type == pygame.KEYDOWN:
             if event.key in (pygame.K_ESCAPE, pygame.K_p):
                 return Pause(game, "Paused")
@@ -282,22 +282,7 @@ class Play:
                 game.use_board(game.board_offer)
                 game.board_offer = None
                 return Calibration(game, then_play=True)
-        if event.type in (pygame.KEYDOWN, pygame.KEYUP):
-            down = event.type == pygame.KEYDOWN
-            if event.key == pygame.K_r:
-                kb.raised = down
-            elif event.key in (pygame.K_f, pygame.K_SPACE):
-                kb.flexed = down
-        if event.type in (pygame.MOUSEBUTTONDOWN, pygame.MOUSEBUTTONUP):
-            down = event.type == pygame.MOUSEBUTTONDOWN
-            if event.button == 3:
-                kb.raised = down
-            elif event.button == 1:
-                kb.flexed = down
-        if event.type == pygame.MOUSEMOTION:
-            w, h = pygame.display.get_surface().get_size() if pygame.display.get_surface() else WINDOW
-            kb.aim_x = 2.0 * event.pos[0] / w - 1.0
-            kb.aim_y = 1.0 - 2.0 * event.pos[1] / h
+        arm_input(game.keyboard, event)
         return None
 
     def update(self, dt: float) -> Screen | None:
@@ -327,6 +312,27 @@ class Play:
         if game.show_plots and game.tracker:
             w, h = surface.get_size()
             game.renderer.draw_plots(surface, game.tracker.plots.series(), pygame.Rect(w - 420, h - 330, 400, 300))
+
+
+def arm_input(kb: KeyboardMouse, event: pygame.event.Event) -> None:
+    """Keyboard and mouse arm controls: R or the right button raises, F, Space or the left flexes."""
+    if event.type in (pygame.KEYDOWN, pygame.KEYUP):
+        down = event.type == pygame.KEYDOWN
+        if event.key == pygame.K_r:
+            kb.raised = down
+        elif event.key in (pygame.K_f, pygame.K_SPACE):
+            kb.flexed = down
+    elif event.type in (pygame.MOUSEBUTTONDOWN, pygame.MOUSEBUTTONUP):
+        down = event.type == pygame.MOUSEBUTTONDOWN
+        if event.button == 3:
+            kb.raised = down
+        elif event.button == 1:
+            kb.flexed = down
+    elif event.type == pygame.MOUSEMOTION:
+        surface = pygame.display.get_surface()
+        w, h = surface.get_size() if surface else WINDOW
+        kb.aim_x = 2.0 * event.pos[0] / w - 1.0
+        kb.aim_y = 1.0 - 2.0 * event.pos[1] / h
 
 
 def held_ball(game: Game, state) -> tuple[tuple[float, float, float], str, float]:
