@@ -273,6 +273,7 @@ class Play:
         game = self.game
         if event.type == pygame.KEYDOWN:
             if event.key in (pygame.K_ESCAPE, pygame.K_p):
+                game.audio.stop_loops()
                 return Pause(game, "Paused")
             if event.key == pygame.K_F1:
                 game.show_plots = not game.show_plots
@@ -298,6 +299,7 @@ class Play:
             if event.kind == "launch":
                 arena.launch(tuple(state.hand), event.direction, event.charge)
         arena.hold(*held_ball(game, state))
+        charge_hum(game)
         events = arena.advance(dt, movement())
         game.renderer.react(events)
         sounds(game, events)
@@ -357,6 +359,18 @@ def movement() -> Controls:
     strafe = keys[pygame.K_d] - keys[pygame.K_a]
     turn = (keys[pygame.K_q] or keys[pygame.K_LEFT]) - (keys[pygame.K_e] or keys[pygame.K_RIGHT])
     return Controls(float(forward), float(strafe), float(turn))
+
+
+def charge_hum(game: Game) -> None:
+    """While the ball spins, a hum that rises with its charge (three levels)."""
+    if game.gestures.state.value != "spinning":
+        if game.audio.looping:
+            game.audio.stop_loops()
+        return
+    wanted = f"charge_{1 + min(2, int(3 * game.gestures.charge))}"
+    if wanted not in game.audio.looping:
+        game.audio.stop_loops()
+        game.audio.loop(wanted)
 
 
 def sounds(game: Game, events) -> None:
@@ -556,6 +570,7 @@ class App:
         self.surface = pygame.display.set_mode(size, flags)
         pygame.display.set_caption("EnergyBall")
         audio = Audio(volume=loaded.volume, music_volume=loaded.music_volume)
+        audio.start()  # opens the mixer now, so a missing audio device is noticed here
         scores, score_notice = load_scores(config_dir)
         self.game = Game(loaded, audio, Renderer(self.surface.get_size()), scores=scores,
                          seed=seed, config_dir=config_dir)
