@@ -260,7 +260,7 @@ class Calibration:
         r.draw_arm_view(surface, self.game.avatar, pygame.Rect(w - 340, 80, 320, 240))
         if self.step in HOLD_S:
             left = -self.clock if self.clock < 0 else HOLD_S[self.step] - self.clock
-            r.draw_countdown(surface, left, ("Get ready: " if self.clock < 0 else "Hold: ") + self.instruction())
+            r.draw_countdown(surface, left, ("Get ready. " if self.clock < 0 else "") + self.instruction())
         else:
             r.draw_banner(surface, self.instruction(), GREEN if self.step == "done" else RED)
 
@@ -445,7 +445,8 @@ class GameOver:
         lines = [("> " if i == self.rank else "  ") + f"{i + 1:2d}. {s.name:12s} {s.score:7d}  wave {s.wave}"
                  for i, s in enumerate(game.scores)]
         w, h = surface.get_size()
-        r.draw_panel(surface, ["HIGH SCORES", *lines, "", "Enter: menu"], pygame.Rect(w // 2 - 230, h // 2 + 50, 460, 300))
+        text = ["HIGH SCORES", *lines, "", "Enter: menu"]
+        r.draw_panel(surface, text, pygame.Rect(w // 2 - 230, h // 2 + 50, 460, 24 + 24 * len(text)))
 
 
 @dataclass
@@ -512,7 +513,8 @@ class Settings:
         r.draw_world(surface, self.game.arena, self.game.avatar, 0.0)
         r.draw_title(surface, "SETTINGS", "up/down: choose, left/right: change, Esc: save and back")
         labels = [f"{name}: {value}" if value else name for name, value in zip(self.items, self.values())]
-        r.draw_menu(surface, labels, self.selected, surface.get_height() // 3)
+        y0 = surface.get_height() // 3 + 30
+        r.draw_menu(surface, labels, self.selected, y0)
 
 
 def _replace(prefs: Preferences, **changes: object) -> Preferences:
@@ -563,6 +565,9 @@ class App:
     def __init__(self, prefs: Preferences | None = None, input_choice: str | None = None,
                  config_dir: object = None, seed: int = 0, size: tuple[int, int] = WINDOW) -> None:
         pygame.init()
+        # The link's reader thread must get the GIL promptly while frames draw: switch
+        # threads every 0.5 ms rather than Python's default 5 ms (input latency).
+        sys.setswitchinterval(0.0005)
         loaded, notice = load_preferences(config_dir) if prefs is None else (prefs, "")
         if input_choice:
             loaded = _replace(loaded, input=input_choice)

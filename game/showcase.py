@@ -39,6 +39,7 @@ def busy_arena(app: App, zombies: int = 60, balls: int = 3, seed: int = 1) -> No
     """A mid-wave scene: a ring of zombies, some blown into the air, balls in flight."""
     arena = app.game.arena
     rng = np.random.default_rng(seed)
+    arena.wave, arena.score = max(arena.wave, 3), max(arena.score, 1200)
     arena.zombies = []
     for i in range(zombies):
         r, a = rng.uniform(4, 16), rng.uniform(0, 2 * math.pi)
