@@ -59,18 +59,6 @@ ZOMBIE_EYES: Colour = (255, 70, 40)
 FLYING_TINT: Colour = (170, 255, 220)  # zombies charged by a hit glow a little
 
 
-@functools.lru_cache(maxsize=4)
-def _zombie_colour_table(fog_near: float, fog_far: float) -> list:
-    """Zombie part colours (legs, body, arms, head, outline) for 16 fog levels, walking then flying."""
-    base = np.array([ZOMBIE_LEGS, ZOMBIE_BODY, ZOMBIE_ARMS, ZOMBIE_HEAD, OUTLINE], dtype=float)
-    table = []
-    for tint in (0.0, 0.55):  # flying zombies glow a little
-        cols = base * (1 - tint) + np.asarray(FLYING_TINT, float) * tint
-        for level in range(16):
-            fog = 0.85 * level / 15
-            table.append((cols * (1 - fog) + np.asarray(HAZE, float) * fog).astype(int).tolist())
-    return table
-
 GLOW_COLOURS: dict[str, Colour] = {
     "energy": (90, 190, 255),
     "spark": (255, 214, 130),
@@ -91,6 +79,21 @@ GLOW_LEVELS = (0.3, 0.55, 0.8, 1.0)  # brightness steps of each glow sprite
 ADD = pygame.BLEND_RGB_ADD
 MULT = pygame.BLEND_RGB_MULT
 SUB = pygame.BLEND_RGB_SUB
+
+
+def _zombie_colour_table() -> list:
+    """Zombie part colours (legs, body, arms, head, outline) at 16 fog levels: walking, then flying."""
+    base = np.array([ZOMBIE_LEGS, ZOMBIE_BODY, ZOMBIE_ARMS, ZOMBIE_HEAD, OUTLINE], dtype=float)
+    table = []
+    for tint in (0.0, 0.55):  # flying zombies glow a little
+        cols = base * (1 - tint) + np.asarray(FLYING_TINT, float) * tint
+        for level in range(16):
+            fog = 0.85 * level / 15
+            table.append((cols * (1 - fog) + np.asarray(HAZE, float) * fog).astype(int).tolist())
+    return table
+
+
+_ZOMBIE_COLOURS = _zombie_colour_table()
 
 
 def _lerp(a: Sequence[float], b: Sequence[float], t: float) -> Colour:
@@ -164,11 +167,9 @@ class Camera:
         self.width = self.height = 0
         self.f = self.cx = self.cy = 0.0
         self.set_viewport(*viewport)
-        self.state: tuple[float, float, float] | None = None  # smoothed (x, y, yaw)
-        self.eye = np.zeros(3)
-        self.rot = np.eye(3)
-        self.snap(0.0, 0.0, 0.0)
-        self.state = None  # the first follow() snaps to the player
+        self.eye, self.rot = np.zeros(3), np.eye(3)
+        self._place(0.0, 0.0, 0.0)
+        self.state: tuple[float, float, float] | None = None  # smoothed (x, y, yaw); the first follow() snaps
 
     def set_viewport(self, width: int, height: int) -> None:
         """Take the surface's size (called each frame: the window is resizable)."""
@@ -191,7 +192,7 @@ class Camera:
     def snap(self, x: float, y: float, yaw: float) -> None:
         """Jump straight to the pose behind a player at (x, y) facing ``yaw``."""
         self.state = (float(x), float(y), float(yaw))
-        self._place()
+        self._place(*self.state)
 
     def follow(self, x: float, y: float, yaw: float, dt: float) -> None:
         """Move smoothly toward the pose behind the player (exponential smoothing, yaw wrapped)."""
@@ -203,14 +204,13 @@ class Camera:
         b = 1.0 - math.exp(-max(dt, 0.0) / self.rig.turn_s)
         turn = (yaw - syaw + math.pi) % (2 * math.pi) - math.pi
         self.state = (sx + (x - sx) * a, sy + (y - sy) * a, syaw + turn * b)
-        self._place()
+        self._place(*self.state)
 
     @property
     def yaw(self) -> float:
         return self.state[2] if self.state else 0.0
 
-    def _place(self) -> None:
-        x, y, yaw = self.state
+    def _place(self, x: float, y: float, yaw: float) -> None:
         fx, fy = -math.sin(yaw), math.cos(yaw)  # yaw 0 faces +y, positive turns left
         r = self.rig
         self.look_at((x - fx * r.back, y - fy * r.back, r.up), (x + fx * r.ahead, y + fy * r.ahead, r.look_height))
@@ -254,9 +254,6 @@ class Camera:
         dz = self.rot[2, 2] - (np.asarray(rows, dtype=float) - self.cy) / self.f * self.rot[1, 2]
         with np.errstate(divide="ignore"):
             return np.where(dz < -1e-9, -self.eye[2] / np.minimum(dz, -1e-9), np.inf)
-
-    def pixels_per_metre(self, depth: np.ndarray | float) -> np.ndarray | float:
-        return self.f / np.maximum(depth, self.near)
 
 
 def grid_segments(cx: float, cy: float, step: float, extent: float) -> tuple[np.ndarray, np.ndarray]:
@@ -373,6 +370,9 @@ class Flash:
 # ------------------------------------------------------------------ caches
 
 
+_SHARED_SPRITES = None
+
+
 class SpriteCache:
     """Pre-rendered glow, shadow and panel surfaces (built on first use, kept)."""
 
@@ -381,6 +381,15 @@ class SpriteCache:
         self._by_code: dict[int, pygame.Surface] = {}
         self._shadow: dict[tuple[int, int, int], pygame.Surface] = {}
         self._panel: dict[tuple[int, int, int], pygame.Surface] = {}
+        self._warm = False
+
+    @classmethod
+    def shared(cls) -> "SpriteCache":
+        """One cache for every renderer of the process (the sprites never change)."""
+        global _SHARED_SPRITES
+        if _SHARED_SPRITES is None:
+            _SHARED_SPRITES = cls()
+        return _SHARED_SPRITES
 
     @staticmethod
     def size_index(radius_px: np.ndarray | float) -> np.ndarray:
@@ -404,20 +413,35 @@ class SpriteCache:
         key = (int(size_index), colour, int(level))
         s = self._glow.get(key)
         if s is None:
-            r = int(GLOW_SIZES[key[0]])
-            u = np.hypot(*np.meshgrid(np.arange(-r, r + 1), np.arange(-r, r + 1), indexing="ij")) / max(r, 1)
-            halo = np.clip(1.0 - u, 0.0, 1.0) ** 2
-            core = np.clip(1.0 - u / 0.3, 0.0, 1.0)
-            rgb = np.asarray(GLOW_COLOURS[colour], dtype=float) * halo[..., None] + 255.0 * core[..., None] * 0.9
-            s = _surface_from_array(np.clip(rgb * GLOW_LEVELS[key[2]], 0, 255).astype(np.uint8))
-            self._glow[key] = s
+            halo, core = _glow_profile(key[0])
+            rgb = np.multiply.outer(halo, np.asarray(GLOW_COLOURS[colour], dtype=float))
+            rgb += (229.5 * core)[..., None]
+            rgb *= GLOW_LEVELS[key[2]]
+            s = self._glow[key] = _surface_from_array(np.minimum(rgb, 255).astype(np.uint8))
         return s
+
+    def warm_up(self) -> None:
+        """Build the glow sprites a frame is likely to need, so that no frame stalls making one.
+
+        Every palette up to 40 px radius (particles, trails); the big sizes in
+        the ball, flash and hand colours. About 90 ms, once a cache.
+        """
+        if self._warm:
+            return
+        self._warm = True
+        big = ("energy", "white", "spark")
+        for si, r in enumerate(_GLOW_SIZE_LIST):
+            for colour in (PALETTES if r <= 40 else big):
+                for level in range(len(GLOW_LEVELS)):
+                    self.glow(si, colour, level)
 
     def shadow(self, width: int, height: int, level: int) -> pygame.Surface:
         """A soft dark ellipse on white, for multiply blits (sizes rounded down to even)."""
         key = (width, height, level)
         s = self._shadow.get(key)
         if s is None:
+            if len(self._shadow) > 4000:
+                self._shadow.clear()
             s = self._shadow[key] = self._make_shadow(max(2, int(width) & ~1), max(2, int(height) & ~1), int(level))
         return s
 
@@ -444,6 +468,14 @@ class SpriteCache:
                 self._panel.clear()
             self._panel[key] = s
         return s
+
+
+@functools.lru_cache(maxsize=None)
+def _glow_profile(size_index: int) -> tuple[np.ndarray, np.ndarray]:
+    """A glow's radial halo (1 - r/R)^2 and hot core, (2R+1) pixels square."""
+    r = _GLOW_SIZE_LIST[size_index]
+    u = np.hypot(*np.meshgrid(np.arange(-r, r + 1), np.arange(-r, r + 1), indexing="ij")) / max(r, 1)
+    return np.maximum(1.0 - u, 0.0) ** 2, np.maximum(1.0 - u / 0.3, 0.0)
 
 
 def _surface_from_array(rgb: np.ndarray) -> pygame.Surface:
@@ -593,7 +625,7 @@ def avatar_parts(avatar, stride_phase: float = 0.0, stride_amp: float = 0.0
     rx, ry = math.cos(yaw), math.sin(yaw)  # body right
     fx, fy = -ry, rx  # body forward
     hips = wp["hips"]
-    k = hips[2] / 1.0
+    k = hips[2]  # the hips stand 1.0 m high at the reference height (game.avatar)
     legs = []
     for sign, swing in ((-1.0, 1.0), (1.0, -1.0)):
         step = 0.3 * stride_amp * swing * math.sin(stride_phase)
@@ -693,6 +725,25 @@ class _Gathered:
     s_flash: slice
 
 
+def _runs(keep: list[bool], a: list, b: list) -> list[list]:
+    """Polylines through the kept segments a[i]->b[i] of a closed loop (no run wraps across the seam)."""
+    n = len(keep)
+    start = keep.index(False) if not all(keep) else 0
+    runs, run = [], []
+    for j in range(n):
+        i = (start + j) % n
+        if keep[i]:
+            if not run:
+                run.append(a[i])
+            run.append(b[i])
+        elif run:
+            runs.append(run)
+            run = []
+    if run:
+        runs.append(run)
+    return runs
+
+
 def _paint_blits(surface: pygame.Surface, blits: list) -> None:
     surface.blits(blits, doreturn=False)
 
@@ -743,7 +794,7 @@ class Renderer:
     RING_SEGMENTS = 96
     TOO_CLOSE = 2.0  # zombies nearer the camera than this (m) are not drawn: they would fill the view
     MAX_PARTICLES = 400
-    TRAIL_SPARKS_PER_S = 50.0  # per flying ball
+    TRAIL_SPARKS_PER_S = 40.0  # per flying ball
     EMIT_PERIOD_S = 1 / 30  # trail and charge sparks are emitted this often
 
     def __init__(self, screen_size: tuple[int, int] = (1280, 720), seed: int = 0,
@@ -752,9 +803,9 @@ class Renderer:
         self.camera = Camera(rig, tuple(screen_size))
         self.particles = Particles(max_particles, self.rng)
         self.flashes: list[Flash] = []
-        self.sprites = SpriteCache()
+        self.sprites = SpriteCache.shared()
+        self.sprites.warm_up()  # no frame should stall building a sprite
         self.text = TextCache()
-        self.time = 0.0
         self._emit_dt = 0.0
         self._bg_key: tuple | None = None
         self._sky: pygame.Surface | None = None
@@ -777,9 +828,9 @@ class Renderer:
         for e in events:
             kind, pos = getattr(e, "kind", None), tuple(getattr(e, "position", (0.0, 0.0, 0.0)))
             if kind == "hit":
-                p.emit(pos, 40, 7.0, "energy", (0.4, 1.0), 0.08, 0.4)
-                p.emit(pos, 24, 5.0, "goo", (0.5, 1.1), 0.07, 1.0)
-                p.emit(pos, 12, 9.0, "white", (0.15, 0.35), 0.05, 0.0)
+                p.emit(pos, 34, 7.0, "energy", (0.4, 1.0), 0.08, 0.4)
+                p.emit(pos, 20, 5.0, "goo", (0.5, 1.1), 0.07, 1.0)
+                p.emit(pos, 10, 9.0, "white", (0.15, 0.35), 0.05, 0.0)
                 self.flashes.append(Flash(pos))
             elif kind == "launch":
                 p.emit(pos, 14, 2.5, "spark", (0.2, 0.45), 0.04, 0.2)
@@ -794,7 +845,6 @@ class Renderer:
 
     def update_effects(self, dt: float, arena=None) -> None:
         """Advance particles and flashes by ``dt``; trails and crackle emit from the arena's balls."""
-        self.time += dt
         self.particles.update(dt)
         for fl in self.flashes:
             fl.age += dt
@@ -1043,15 +1093,11 @@ class Renderer:
                                              max(self.GRID_NEAR, self.camera.near))
         g = keep[:n]
         lines = np.hstack([pa[:n][g], pb[:n][g]]).astype(np.int32).tolist()
-        pa, pb, keep = pa[n:], pb[n:], keep[n:]
+        runs = _runs(keep[n:].tolist(), pa[n:].astype(np.int32).tolist(), pb[n:].astype(np.int32).tolist())
         polylines = []
-        if keep.any():
-            order = np.roll(np.arange(len(keep)), -int(np.argmin(keep)))  # start at a gap: no run wraps around
-            edges = np.flatnonzero(np.diff(np.concatenate([[0], keep[order].astype(np.int8), [0]])))
-            for s0, s1 in zip(edges[::2].tolist(), edges[1::2].tolist()):
-                pts = np.vstack([pa[order[s0:s0 + 1]], pb[order[s0:s1]]]).astype(np.int32)
-                for dy, colour in ((-1, _RING_DIM), (1, _RING_DIM), (0, RING)):  # three 1-px lines: a soft glow
-                    polylines.append((colour, (pts + (0, dy)).tolist()))
+        for run in runs:
+            for dy, colour in ((-1, _RING_DIM), (1, _RING_DIM), (0, RING)):  # three 1-px lines: a soft glow
+                polylines.append((colour, [[x, y + dy] for x, y in run]))
         return lines, polylines
 
     def _screen_segments(self, ca: np.ndarray, cb: np.ndarray, near: float):
@@ -1101,7 +1147,6 @@ class Renderer:
         d, flying = d[ok], flying[ok]
         hip = d[:, Z_HIP]
         ppm = cam.f / hip
-        table = _zombie_colour_table(self.FOG_NEAR, self.FOG_FAR)
         fog_level = (self.fog(hip) * (15.99 / 0.85)).astype(int) + 16 * flying
         pts = frame.ixy[sl].reshape(n, Z_JOINTS, 2)[ok]
         records = list(zip(pts[:, Z_LEGS].tolist(), pts[:, Z_ARMS].tolist(),
@@ -1109,7 +1154,7 @@ class Renderer:
                            np.maximum(1, ppm * 0.11).astype(int).tolist(),
                            np.maximum(1, ppm * 0.22).astype(int).tolist(),
                            np.maximum(2, ppm * 0.13).astype(int).tolist(),
-                           [table[i] for i in fog_level.tolist()],
+                           [_ZOMBIE_COLOURS[i] for i in fog_level.tolist()],
                            (d[:, Z_EYEL] < d[:, Z_HEAD]).tolist()))  # eyes nearer than the head: facing us
         return hip, records
 
@@ -1399,10 +1444,13 @@ class Renderer:
         w, h = surface.get_size()
         size = max(22, h // 20)
         gap = int(size * 1.35)
+        width = max([self.text.font(size).size(f">  {item}  <")[0] for item in items] + [200]) + 80
+        back = pygame.Rect(w // 2 - width // 2, int(y0 - gap * 0.6), width, int(gap * (len(items) + 0.2)))
+        surface.blit(self.sprites.panel(back.width, back.height, 110), back)
         for i, item in enumerate(items):
             y = int(y0 + i * gap)
             if i == selected:
-                bar = pygame.Rect(0, 0, max(240, int(size * 0.6 * len(item)) + 120), gap - 6)
+                bar = pygame.Rect(0, 0, width - 16, gap - 6)
                 bar.center = (w // 2, y)
                 surface.blit(self.sprites.panel(bar.width, bar.height, 150), bar)
                 self.text.blit(surface, f">  {item}  <", size, (255, 230, 120), (w // 2, y), "center")

@@ -330,3 +330,51 @@ def test_screen_helpers_draw(screen):
     orange = (after[..., 0] > 200) & (after[..., 1] > 120) & (after[..., 2] < 100)
     assert (after != before).any() and orange.sum() > 50  # the tracked arm, in its colour
     assert screen.get_bounding_rect().width > 600
+
+
+# ------------------------------------------------------------------ geometry helpers
+
+
+def test_walking_zombie_reaches_forward_along_its_heading():
+    from game.render import Z_FOOTL, Z_HANDL, Z_HANDR, Z_HEAD, Z_HIP, zombie_joints
+    for heading, forward in ((0.0, (1.0, 0.0)), (math.pi / 2, (0.0, 1.0))):
+        j = zombie_joints([2.0], [3.0], [0.0], [math.pi / 2], [heading], [0.0], [False], [0.0])[0]  # mid-stride
+        reach = (j[Z_HANDL, :2] + j[Z_HANDR, :2]) / 2 - j[Z_HIP, :2]
+        assert reach @ np.array(forward) > 0.5  # the arms stretch out ahead
+        assert j[Z_HEAD, 2] == pytest.approx(1.66, abs=0.05) and j[Z_FOOTL, 2] == pytest.approx(0.0, abs=0.01)
+        assert j[Z_HIP, :2] == pytest.approx([2.0, 3.0])
+
+
+def test_flying_zombie_tumbles_with_spin_and_scales_with_height():
+    from game.render import Z_HEAD, Z_HIP, zombie_joints
+    upright, flipped = zombie_joints([0, 0], [0, 0], [5.0, 5.0], [0, 0], [0, 0], [0.0, math.pi], [True, True],
+                                     [0.3, 0.3])
+    assert upright[Z_HEAD, 2] > upright[Z_HIP, 2] > 5.0
+    assert flipped[Z_HEAD, 2] < flipped[Z_HIP, 2]  # upside down
+    tall = zombie_joints([0], [0], [0], [0], [0], [0], [False], [0], height=3.6)[0]
+    assert tall[Z_HEAD, 2] == pytest.approx(2 * 1.66, abs=0.1)
+
+
+def test_ground_grid_lines_every_two_metres_on_a_disc():
+    from game.render import grid_segments
+    a, b = grid_segments(10.0, -4.0, 2.0, 56.0)
+    xs = np.unique(a[: len(a) // 2, 0])
+    assert np.diff(xs) == pytest.approx(2.0) and xs.min() > 10 - 56 and xs.max() < 10 + 56
+    assert np.all(np.hypot(a[:, 0] - 10.0, a[:, 1] + 4.0) == pytest.approx(56.0))  # ends on the rim
+    assert (a[:, 2] == 0).all() and (b[:, 2] == 0).all()
+
+
+def test_title_glow_leaves_no_box(screen):
+    r = Renderer((1280, 720))
+    screen.fill((20, 20, 40))
+    r.draw_title(screen, "ENERGYBALL", "sub")
+    rect = r.text.render("ENERGYBALL", 720 // 7).get_rect(midtop=(640, 720 // 6))
+    assert tuple(screen.get_at((rect.left + 2, rect.top + 1)))[:3] == (20, 20, 40)  # a corner between letters
+
+
+def test_ring_runs_do_not_wrap_across_the_seam():
+    from game.render import _runs
+    a, b = [[i, 0] for i in range(4)], [[i + 1, 0] for i in range(4)]
+    assert _runs([True, True, False, True], a, b) == [[[3, 0], [4, 0], [1, 0], [2, 0]]]
+    assert _runs([True, False, True, False], a, b) == [[[2, 0], [3, 0]], [[0, 0], [1, 0]]]
+    assert _runs([False] * 4, a, b) == []
