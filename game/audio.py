@@ -97,8 +97,15 @@ class Audio:
         return self._music_on
 
     def start(self) -> bool:
-        """Open the mixer now rather than on first use; True if sound can play."""
-        return self._mixer() is not None
+        """Open the mixer and load every sound now rather than on first use (loading a
+        sound mid-game stalls a frame by tens of milliseconds); True if sound can play."""
+        if self._mixer() is None:
+            return False
+        if self.assets_dir.is_dir():
+            for path in sorted(self.assets_dir.glob("*.wav")):
+                if path.stem != "music":
+                    self._sound(path.stem)
+        return True
 
     def _note(self, message: str) -> None:
         if message not in self._notices:

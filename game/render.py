@@ -1287,22 +1287,32 @@ class Renderer:
         return self._glow_blits(frame.xy[sl][on], rad[on], p.palette[on],
                                 np.minimum(3, (p.life[on] / p.life0[on] * 4).astype(int)))
 
+    def _vignette_for(self, w: int, h: int, level: int) -> pygame.Surface:
+        """The red edge glow for a screen size at one of four strengths (built for all four at once)."""
+        v = self._vignette.get((w, h, level))
+        if v is None:
+            if len(self._vignette) > 8:
+                self._vignette.clear()
+            band = max(1, int(0.22 * min(w, h)))
+            xs = np.minimum(np.arange(w), w - 1 - np.arange(w)) / band
+            ys = np.minimum(np.arange(h), h - 1 - np.arange(h)) / band
+            edge = (np.clip(1 - np.minimum(xs[:, None], ys[None, :]), 0, 1) ** 2)[..., None]
+            for k in range(1, 5):
+                rgb = edge * np.array([200.0, 10.0, 20.0]) * (k / 4)
+                self._vignette[(w, h, k)] = _surface_from_array(rgb.astype(np.uint8))
+            v = self._vignette[(w, h, level)]
+        return v
+
+    def prepare(self, size: tuple[int, int]) -> None:
+        """Build what a frame at this size may need, so that no frame in play stalls building it."""
+        self._vignette_for(size[0], size[1], 4)
+
     def _draw_vignette(self, surface: pygame.Surface, strength: float) -> None:
         """A red glow creeping in from the edges, drawn only in the edge bands (the centre is untouched)."""
         w, h = surface.get_size()
         level = max(1, min(4, int(math.ceil(strength * 4))))
-        key = (w, h, level)
-        v = self._vignette.get(key)
+        v = self._vignette_for(w, h, level)
         band = max(1, int(0.22 * min(w, h)))
-        if v is None:
-            xs = np.minimum(np.arange(w), w - 1 - np.arange(w)) / band
-            ys = np.minimum(np.arange(h), h - 1 - np.arange(h)) / band
-            edge = np.clip(1 - np.minimum(xs[:, None], ys[None, :]), 0, 1) ** 2
-            rgb = edge[..., None] * np.array([200.0, 10.0, 20.0]) * (level / 4)
-            v = _surface_from_array(rgb.astype(np.uint8))
-            if len(self._vignette) > 8:
-                self._vignette.clear()
-            self._vignette[key] = v
         for rect in ((0, 0, w, band), (0, h - band, w, band), (0, band, band, h - 2 * band),
                      (w - band, band, band, h - 2 * band)):
             surface.blit(v, rect[:2], pygame.Rect(rect), special_flags=ADD)
