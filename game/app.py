@@ -67,6 +67,7 @@ class Game:
     board_offer: str | None = None  # a board plugged in while on keyboard
     seed: int = 0
     config_dir: object = None
+    virtual_board: object = None  # the simulated board behind --virtual
 
     # -------------------------------------------------------- input
 
@@ -84,11 +85,11 @@ class Game:
 
     def use_board(self, port: str | None, virtual: bool = False) -> None:
         """Switch to a board (a port, or a virtual one) read in the background."""
+        self.close_board()
         if virtual:
             from tracker.board import VirtualBoard
-            self._virtual = VirtualBoard().start()
-            port = self._virtual.port
-        self.close_board()
+            self.virtual_board = VirtualBoard().start()
+            port = self.virtual_board.port
         self.tracker = TrackerInput(LinkSettings(port))
         self.calibrated = False
         self.avatar.wearing = Wearing()
@@ -102,6 +103,9 @@ class Game:
         if self.tracker:
             self.tracker.close()
             self.tracker = None
+        if self.virtual_board:
+            self.virtual_board.stop()
+            self.virtual_board = None
 
     def link_lost(self) -> bool:
         """A board was connected and is not now (cable pulled)."""

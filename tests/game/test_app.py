@@ -89,3 +89,58 @@ def test_settings_persist(app, tmp_path):
 def test_quit_from_the_menu(app):
     frames(app, 0.1, [key(pygame.K_ESCAPE)])
     assert not app.running
+
+
+def test_a_pulled_cable_pauses_with_a_message_and_play_resumes_when_it_is_back(app):
+    import time
+
+    from tracker.board import VirtualBoard
+
+    with VirtualBoard() as board:
+        app.game.use_board(board.port)
+        app.game.calibrated = True
+        app.screen = Play(app.game)
+        deadline = time.monotonic() + 5
+        while not app.game.tracker.connected and time.monotonic() < deadline:
+            app.frame([], DT)
+            time.sleep(0.01)
+        assert app.game.tracker.connected
+        board.pull_cable()
+        deadline = time.monotonic() + 5
+        while not isinstance(app.screen, Pause) and time.monotonic() < deadline:
+            app.frame([], DT)
+            time.sleep(0.01)
+        assert isinstance(app.screen, Pause) and "cable" in app.screen.reason
+        board.plug_in()
+        deadline = time.monotonic() + 8
+        while not isinstance(app.screen, Play) and time.monotonic() < deadline:
+            app.frame([], DT)
+            time.sleep(0.02)
+        assert isinstance(app.screen, Play)
+
+
+def test_without_a_display_the_game_says_how_to_run_headless():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY", "SDL_VIDEODRIVER")}
+    r = subprocess.run([sys.executable, "-m", "game"], capture_output=True, text=True, env=env, timeout=60,
+                       cwd=Path(__file__).resolve().parents[2])
+    assert r.returncode != 0 and "Traceback" not in r.stderr
+    assert "no display found" in r.stderr and "energyball shots" in r.stderr
+
+
+def test_virtual_input_plays_from_a_simulated_board_and_stops_it_on_close(tmp_path):
+    import time
+
+    a = App(Preferences(input="virtual"), config_dir=tmp_path, seed=2)
+    try:
+        board = a.game.virtual_board
+        assert board is not None and a.game.tracker is not None
+        assert a.game.tracker.opened.wait(5.0) and a.game.tracker.error is None
+        time.sleep(0.3)
+        assert a.game.pose(DT).flex_deg >= 0  # poses come from the board
+    finally:
+        a.close()
+    assert a.game.virtual_board is None and not os.path.exists(board.port)
