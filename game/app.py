@@ -91,7 +91,9 @@ class Game:
             self.virtual_board = VirtualBoard().start()
             port = self.virtual_board.port
         self.tracker = TrackerInput(LinkSettings(port))
-        self.calibrated = False
+        # The virtual board's simulated arm wears it ideally and never holds still: it
+        # needs (and allows) no wearing calibration.
+        self.calibrated = virtual
         self.avatar.wearing = Wearing()
 
     def use_keyboard(self) -> None:
