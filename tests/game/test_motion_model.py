@@ -82,8 +82,8 @@ def test_given_targets_are_hit_and_azimuth_is_positive_to_the_right():
     script = Script(STILL, seed=5)
     launches = script.gesture(targets=[(30.0, 90.0), (-20.0, 100.0)])
     s = script.build()
-    assert [x.direction_body for x in launches] == pytest.approx(
-        [tuple(direction(30.0, 90.0)), tuple(direction(-20.0, 100.0))])
+    assert np.array([x.direction_body for x in launches]) == pytest.approx(
+        np.array([direction(30.0, 90.0), direction(-20.0, 100.0)]))
     assert launches[0].direction_body[0] > 0 and launches[1].direction_body[0] < 0
     for launch in launches:
         assert angle_deg(s.pointing(launch.t_straight)[0], launch.direction_body) < 1e-6
