@@ -140,6 +140,11 @@ class Game:
 # ----------------------------------------------------------------- screens
 
 
+def menu_step(key: int) -> int:
+    """-1 for up (arrow or W), +1 for down (arrow or S), 0 for any other key."""
+    return -1 if key in (pygame.K_UP, pygame.K_w) else 1 if key in (pygame.K_DOWN, pygame.K_s) else 0
+
+
 @dataclass
 class Menu:
     game: Game
@@ -149,10 +154,8 @@ class Menu:
     def handle(self, event: pygame.event.Event) -> Screen | None:
         if event.type != pygame.KEYDOWN:
             return None
-        if event.key in (pygame.K_UP, pygame.K_w):
-            self.selected = (self.selected - 1) % len(self.items)
-        elif event.key in (pygame.K_DOWN, pygame.K_s):
-            self.selected = (self.selected + 1) % len(self.items)
+        if step := menu_step(event.key):
+            self.selected = (self.selected + step) % len(self.items)
         elif event.key in (pygame.K_RETURN, pygame.K_SPACE):
             self.game.audio.play("click")
             return self.choose(self.items[self.selected])
@@ -470,10 +473,8 @@ class Settings:
     def handle(self, event: pygame.event.Event) -> Screen | None:
         if event.type != pygame.KEYDOWN:
             return None
-        if event.key in (pygame.K_UP, pygame.K_w):
-            self.selected = (self.selected - 1) % len(self.items)
-        elif event.key in (pygame.K_DOWN, pygame.K_s):
-            self.selected = (self.selected + 1) % len(self.items)
+        if step := menu_step(event.key):
+            self.selected = (self.selected + step) % len(self.items)
         elif event.key in (pygame.K_LEFT, pygame.K_RIGHT, pygame.K_a, pygame.K_d):
             self.change(1 if event.key in (pygame.K_RIGHT, pygame.K_d) else -1)
         elif event.key == pygame.K_ESCAPE or (event.key == pygame.K_RETURN and self.items[self.selected] == "Back"):
