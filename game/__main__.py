@@ -10,7 +10,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
+
+os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")  # our messages, not pygame's banner
 from typing import Sequence
 
 
@@ -20,9 +23,9 @@ class UsageError(Exception):
 
 HEADLESS_HELP = ("energyball: no display found, so the game window cannot open.\n"
                  "  Run it on a desktop, or headless:\n"
-                 "    SDL_VIDEODRIVER=dummy energyball shots --out shots   (every screen to PNG)\n"
-                 "    energyball gestures-eval                            (gesture accuracy, simulated)\n"
-                 "    energyball bench                                    (frame time and input latency)")
+                 "    energyball shots --out shots    (every screen to PNG)\n"
+                 "    energyball gestures-eval        (gesture accuracy, simulated players)\n"
+                 "    energyball bench                (frame time and input latency)")
 
 
 def _input_choice(args: argparse.Namespace) -> str | None:
@@ -33,8 +36,16 @@ def _input_choice(args: argparse.Namespace) -> str | None:
     return args.port
 
 
+def display_available() -> bool:
+    """Whether a window can open here (or a video driver was named), checked without pygame."""
+    if os.environ.get("SDL_VIDEODRIVER"):
+        return True
+    if sys.platform.startswith("linux"):
+        return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    return True
+
+
 def cmd_play(args: argparse.Namespace) -> int:
-    from .app import display_available
     if not display_available():
         print(HEADLESS_HELP, file=sys.stderr)
         return 1

@@ -649,12 +649,3 @@ class App:
         self.game.close_board()
         self.game.audio.close()
         pygame.quit()
-
-
-def display_available() -> bool:
-    """Whether a window can open here (or the dummy driver was asked for)."""
-    if os.environ.get("SDL_VIDEODRIVER"):
-        return True
-    if sys.platform.startswith("linux"):
-        return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
-    return True
