@@ -13,7 +13,7 @@ from __future__ import annotations
 import gc
 import os
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, Protocol
 
 import pygame
@@ -487,18 +487,19 @@ class Settings:
         if item == "Input":
             choices = ["auto", "keyboard", "virtual", *[b.device for b in find_boards()]]
             current = choices.index(p.input) if p.input in choices else 0
-            p = _replace(p, input=choices[(current + step) % len(choices)])
+            p = replace(p, input=choices[(current + step) % len(choices)])
         elif item == "Arm":
-            p = _replace(p, side="left" if p.side == "right" else "right")
+            p = replace(p, side="left" if p.side == "right" else "right")
         elif item == "Launch flex":
-            p = _replace(p, flex_on_deg=min(120.0, max(p.flex_off_deg + 10, p.flex_on_deg + 5 * step)))
+            p = replace(p, flex_on_deg=min(120.0, max(p.flex_off_deg + 10, p.flex_on_deg + 5 * step)))
         elif item == "Volume":
-            p = _replace(p, volume=round(min(1.0, max(0.0, p.volume + 0.1 * step)), 1))
+            p = replace(p, volume=round(min(1.0, max(0.0, p.volume + 0.1 * step)), 1))
         elif item == "Music":
-            p = _replace(p, music_volume=round(min(1.0, max(0.0, p.music_volume + 0.1 * step)), 1))
+            p = replace(p, music_volume=round(min(1.0, max(0.0, p.music_volume + 0.1 * step)), 1))
         elif item == "Fullscreen":
-            p = _replace(p, fullscreen=not p.fullscreen)
-            pygame.display.toggle_fullscreen() if pygame.display.get_surface() else None
+            p = replace(p, fullscreen=not p.fullscreen)
+            if pygame.display.get_surface():
+                pygame.display.toggle_fullscreen()
         game.prefs = p
         game.audio.set_volume(p.volume)
         game.audio.set_music_volume(p.music_volume)
@@ -523,11 +524,6 @@ class Settings:
         labels = [f"{name}: {value}" if value else name for name, value in zip(self.items, self.values())]
         y0 = surface.get_height() // 3 + 30
         r.draw_menu(surface, labels, self.selected, y0)
-
-
-def _replace(prefs: Preferences, **changes: object) -> Preferences:
-    from dataclasses import replace
-    return replace(prefs, **changes)
 
 
 class Quit:
@@ -578,7 +574,7 @@ class App:
         sys.setswitchinterval(0.0005)
         loaded, notice = load_preferences(config_dir) if prefs is None else (prefs, "")
         if input_choice:
-            loaded = _replace(loaded, input=input_choice)
+            loaded = replace(loaded, input=input_choice)
         flags = pygame.RESIZABLE | (pygame.FULLSCREEN if loaded.fullscreen else 0)
         self.surface = pygame.display.set_mode(size, flags)
         pygame.display.set_caption("EnergyBall")

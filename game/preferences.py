@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import os
 import time
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 from tracker.atomic import atomic_write
@@ -104,8 +104,3 @@ def add_score(scores: list[Score], score: Score, directory: Path | None = None) 
     folder.mkdir(parents=True, exist_ok=True)
     atomic_write(folder / "scores.json", json.dumps([asdict(s) for s in table], indent=1))
     return table, rank
-
-
-def with_changes(prefs: Preferences, **changes: object) -> Preferences:
-    """A copy with some fields changed (validated)."""
-    return replace(prefs, **changes)
