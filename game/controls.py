@@ -127,7 +127,7 @@ class TrackerInput:
 
     @property
     def connected(self) -> bool:
-        return self.opened.is_set() and self.error is None and self.link.health().connected
+        return self.opened.is_set() and self.error is None and self.link.connected
 
     def health(self) -> LinkHealth | None:
         return self.link.health() if self.opened.is_set() and self.error is None else None

@@ -165,7 +165,7 @@ class Link:
         self._queue: queue.Queue = queue.Queue(maxsize=settings.queue_size)
         self._session: _Session | None = None
         self._closed_stats = P.DecoderStats()  # summed over earlier sessions
-        self._arrivals: deque[float] = deque(maxlen=4096)
+        self._arrivals: deque[float] = deque(maxlen=4096)  # receive times within the last second
         self._last_sample: float | None = None
         self._overflows = 0
         self._reconnects = 0
@@ -236,15 +236,25 @@ class Link:
         now = time.monotonic()
         with self._lock:
             stats = self._stats()
-            rate = sum(1 for t in self._arrivals if now - t <= 1.0)
+            self._forget_before(now - 1.0)
+            rate = len(self._arrivals)
             last = self._last_sample
         return LinkHealth(
-            connected=self._session is not None, status=self._status,
+            connected=self.connected, status=self._status,
             legacy_text=isinstance(self._session.decoder, P.TextDecoder) if self._session else False,
             rate_hz=float(rate), frames=stats.frames, dropped=stats.dropped,
             crc_errors=stats.crc_errors, bytes_skipped=stats.bytes_skipped,
             queue_overflows=self._overflows,
             since_last_s=None if last is None else now - last, reconnects=self._reconnects)
+
+    @property
+    def connected(self) -> bool:
+        """Whether a board is connected now (cheap: the game asks every frame)."""
+        return self._session is not None
+
+    def _forget_before(self, t: float) -> None:
+        while self._arrivals and self._arrivals[0] < t:
+            self._arrivals.popleft()
 
     def stats(self) -> P.DecoderStats:
         """Decoder counters summed over every session of this link."""
@@ -368,6 +378,7 @@ class Link:
                 continue
             with self._lock:
                 self._arrivals.append(now)
+                self._forget_before(now - 1.0)
                 self._last_sample = now
             try:
                 self._queue.put_nowait(p)
