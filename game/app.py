@@ -323,7 +323,7 @@ class Play:
         game.renderer.draw_hud(surface, game.hud())
         if game.show_plots and game.tracker:
             w, h = surface.get_size()
-            game.renderer.draw_plots(surface, game.tracker.plots.series(), pygame.Rect(w - 420, h - 330, 400, 300))
+            game.renderer.draw_plots(surface, game.tracker.plot_series(), pygame.Rect(w - 420, h - 330, 400, 300))
 
 
 def arm_input(kb: KeyboardMouse, event: pygame.event.Event) -> None:

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import threading
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -28,6 +28,7 @@ from .tracking import Tracking
 
 PLOT_SECONDS = 4.0
 PLOT_RATE = 200
+RECENT_SECONDS = 5.0
 
 
 @dataclass
@@ -76,27 +77,6 @@ class KeyboardMouse:
         return tuple(float(c) for c in Q.multiply(arm, Q.conjugate(self.mount)))  # type: ignore[return-value]
 
 
-@dataclass
-class PlotBuffer:
-    """The last seconds of raw readings, for the live plots (bounded memory)."""
-
-    size: int = int(PLOT_SECONDS * PLOT_RATE)
-    gyr: deque = field(default_factory=deque)
-    acc: deque = field(default_factory=deque)
-    flex: deque = field(default_factory=deque)
-
-    def add(self, s: P.RawSample) -> None:
-        for buf, value in ((self.gyr, s.gyr), (self.acc, s.acc), (self.flex, (s.flex_adc,))):
-            buf.append(value)
-            if len(buf) > self.size:
-                buf.popleft()
-
-    def series(self) -> dict[str, np.ndarray]:
-        return {"gyroscope (rad/s)": np.array(self.gyr).reshape(-1, 3),
-                "accelerometer (m/s2)": np.array(self.acc).reshape(-1, 3),
-                "flex (ADC)": np.array(self.flex).reshape(-1, 1)}
-
-
 class TrackerInput:
     """A board read in the background; :meth:`poll` gives the newest ArmPose.
 
@@ -107,13 +87,13 @@ class TrackerInput:
     def __init__(self, settings: LinkSettings, tracking: Tracking | None = None) -> None:
         self.link = Link(settings)
         self.tracking = tracking or Tracking()
-        self.plots = PlotBuffer()
         self.status = f"connecting to {settings.port}..."
         self.error: str | None = None
         self.opened = threading.Event()
         self.last_pose: ArmPose | None = None
         self.last_seq: int | None = None
-        self.recent: deque[P.RawSample] = deque(maxlen=int(5 * PLOT_RATE))  # for "hold still"
+        # the last raw samples: for "hold still" and the live plots (bounded memory)
+        self.recent: deque[P.RawSample] = deque(maxlen=int(RECENT_SECONDS * PLOT_RATE))
         threading.Thread(target=self._open, name="tracker-open", daemon=True).start()
 
     def _open(self) -> None:
@@ -140,9 +120,15 @@ class TrackerInput:
             self.last_pose = self.tracking.feed(s)
             self.last_seq = s.seq
             if isinstance(s, P.RawSample):
-                self.plots.add(s)
                 self.recent.append(s)
         return self.last_pose
+
+    def plot_series(self) -> dict[str, np.ndarray]:
+        """The last PLOT_SECONDS of gyroscope, accelerometer and flex readings, for the live plots."""
+        samples = list(self.recent)[-int(PLOT_SECONDS * PLOT_RATE):]
+        return {"gyroscope (rad/s)": np.array([s.gyr for s in samples]).reshape(-1, 3),
+                "accelerometer (m/s2)": np.array([s.acc for s in samples]).reshape(-1, 3),
+                "flex (ADC)": np.array([s.flex_adc for s in samples]).reshape(-1, 1)}
 
     def close(self) -> None:
         if self.opened.is_set() and self.error is None:

@@ -53,7 +53,7 @@ def test_a_board_on_a_pty_gives_poses_and_plots():
             time.sleep(0.01)
         tracker.close()
     assert poses and np.isclose(np.linalg.norm(poses[-1].q_upper), 1.0)
-    series = tracker.plots.series()
+    series = tracker.plot_series()
     assert series["gyroscope (rad/s)"].shape[1] == 3 and len(series["flex (ADC)"]) > 50
 
 
