@@ -163,14 +163,13 @@ class Avatar:
 
     # ------------------------------------------------------------ kinematics
 
-    def forward_kinematics(self, overrides: dict[str, Quat] | None = None) -> None:
+    def forward_kinematics(self, arm: ArmPose | None = None) -> None:
         """World rotations and joint positions of every bone, parents first.
 
-        ``overrides`` gives world rotations that replace parent * local (the
-        tracked arm's chain is computed in :meth:`update`). Scalar quaternion
-        math (:mod:`tracker.fusion.qmath`): this runs once per sample.
+        With an ``arm`` pose the tracked arm takes seed 000's chain (see
+        :meth:`_tracked`) instead of parent * local. Scalar quaternion math
+        (:mod:`tracker.fusion.qmath`): this runs once per sample.
         """
-        overrides = overrides or {}
         root = (math.cos(0.5 * self.body_yaw), 0.0, 0.0, math.sin(0.5 * self.body_yaw))
         for bone in self.bones:
             if bone.parent is None:
@@ -178,7 +177,25 @@ class Avatar:
             else:
                 parent_rot, parent_pos = self.world_rot[bone.parent], self.world_pos[bone.parent]
             self.world_pos[bone.name] = _add(parent_pos, q.rotate(parent_rot, bone.offset))
-            self.world_rot[bone.name] = overrides.get(bone.name) or q.mul(parent_rot, self.local[bone.name])
+            tracked = self._tracked(bone.name, parent_rot, arm) if arm else None
+            self.world_rot[bone.name] = tracked or q.mul(parent_rot, self.local[bone.name])
+
+    def _tracked(self, name: str, parent_rot: Quat, arm: ArmPose) -> Quat | None:
+        """The tracked arm's world rotations (seed 000 sec. 4); None for any other bone.
+
+        The hand follows the forearm rigidly (parent * identity), so it needs no case.
+        """
+        side = self.body.side
+        if name == f"{side}_upper_arm":
+            return self._chain(parent_rot, arm.q_upper)
+        if name == f"{side}_forearm":
+            return q.mul(parent_rot, hinge(arm.flex_deg, self.body.mounting))
+        return None
+
+    def _chain(self, parent_rot: Quat, q_upper: Quat) -> Quat:
+        """initRotation * parent.rotation * inertialRotation, inertialRotation = q_WS * q_SB."""
+        inertial = q.mul(tuple(q_upper), tuple(self.wearing.mount))
+        return q.normalize(q.mul(q.mul(tuple(self.wearing.init), parent_rot), inertial))
 
     def end_of(self, name: str) -> Vec:
         """Where a bone ends: its joint plus its length along its own -z."""
@@ -186,20 +203,15 @@ class Avatar:
         return _add(self.world_pos[name], q.rotate(self.world_rot[name], (0.0, 0.0, -bone.length)))
 
     def upper_arm_rotation(self, q_upper: Quat) -> Quat:
-        """initRotation * parent.rotation * inertialRotation (seed 000 sec. 4)."""
+        """The tracked upper arm's world rotation for a reading, with the body as it stands."""
         self.forward_kinematics()  # the parent (shoulder) follows the body
-        parent = self.world_rot[f"{self.body.side}_shoulder"]
-        inertial = q.mul(tuple(q_upper), tuple(self.wearing.mount))
-        return q.normalize(q.mul(q.mul(tuple(self.wearing.init), parent), inertial))
+        return self._chain(self.world_rot[f"{self.body.side}_shoulder"], q_upper)
 
     def update(self, arm: ArmPose) -> ArmState:
         """Pose the tracked arm from one ArmPose and return its joints."""
         side = self.body.side
-        upper = self.upper_arm_rotation(arm.q_upper)
-        forearm = q.mul(upper, hinge(arm.flex_deg, self.body.mounting))
-        self.forward_kinematics({f"{side}_upper_arm": upper, f"{side}_forearm": forearm,
-                                 f"{side}_hand": forearm})
-        pointing = q.rotate(upper, (0.0, 0.0, -1.0))
+        self.forward_kinematics(arm)
+        pointing = q.rotate(self.world_rot[f"{side}_upper_arm"], (0.0, 0.0, -1.0))
         elevation = math.degrees(math.acos(max(-1.0, min(1.0, -pointing[2]))))
         return ArmState(arm.t, np.array(self.world_pos[f"{side}_upper_arm"]),
                         np.array(self.world_pos[f"{side}_forearm"]), np.array(self.world_pos[f"{side}_hand"]),
