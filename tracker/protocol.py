@@ -358,7 +358,6 @@ class _Sequence:
         return lost
 
 
-MAX_BUFFER = 4096  # bytes kept between feeds; a frame is at most 259
 
 
 @dataclass
@@ -368,7 +367,8 @@ class FrameDecoder:
     Feed it chunks of any size; it returns the packets completed so far. It
     resynchronises after garbage by scanning for the sync marker one byte at a
     time past any rejected candidate, so a valid frame is never skipped, and it
-    never raises on any input.
+    never raises on any input. Between feeds it keeps at most one incomplete
+    frame (from a sync marker on: 261 bytes), so memory stays bounded.
     """
 
     stats: DecoderStats = field(default_factory=DecoderStats)
@@ -416,9 +416,6 @@ class FrameDecoder:
             self.stats.frames += 1
             pos = end
         del buf[:pos]
-        if len(buf) > MAX_BUFFER:  # cannot happen with a sync at the front; belt and braces
-            self.stats.bytes_skipped += len(buf)
-            buf.clear()
         return out
 
     def _packet(self, ftype: int, buf: bytearray, at: int, host_t: float | None) -> Packet | None:
