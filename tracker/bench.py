@@ -14,6 +14,7 @@ from typing import Callable
 import numpy as np
 
 from . import protocol as P
+from .evaluate import available_peers
 from .fusion import FILTERS, make
 
 FRAMES = 20_000
@@ -90,36 +91,32 @@ def filter_rates(n: int = FILTER_UPDATES) -> dict[str, float]:
     return rates
 
 
+def _vqf_loop(gyr: list, acc: list, mag: list) -> None:
+    import vqf
+
+    f = vqf.VQF(0.005)
+    g, a, m = (np.asarray(x) for x in (gyr, acc, mag))
+    for i in range(len(g)):
+        f.update(g[i], a[i], m[i])
+        f.getQuat9D()
+
+
+def _imufusion_loop(gyr: list, acc: list, mag: list) -> None:
+    import imufusion
+
+    ahrs = imufusion.Ahrs()
+    g, a, m = np.degrees(gyr), np.asarray(acc) / 9.81, np.asarray(mag)
+    for i in range(len(g)):
+        ahrs.update(g[i], a[i], m[i])
+        ahrs.get_quaternion()
+
+
+_PEER_LOOPS: dict[str, Callable[[list, list, list], None]] = {"vqf": _vqf_loop, "imufusion": _imufusion_loop}
+
+
 def _peer_steppers() -> dict[str, Callable[[list, list, list], None]]:
     """Per-sample update loops of the installed peers, as a Python program would call them."""
-    steppers = {}
-    try:
-        import vqf
-
-        def vqf_loop(gyr: list, acc: list, mag: list) -> None:
-            f = vqf.VQF(0.005)
-            g, a, m = (np.asarray(x) for x in (gyr, acc, mag))
-            for i in range(len(g)):
-                f.update(g[i], a[i], m[i])
-                f.getQuat9D()
-
-        steppers["vqf"] = vqf_loop
-    except ImportError:
-        pass
-    try:
-        import imufusion
-
-        def fusion_loop(gyr: list, acc: list, mag: list) -> None:
-            ahrs = imufusion.Ahrs()
-            g, a, m = np.degrees(gyr), np.asarray(acc) / 9.81, np.asarray(mag)
-            for i in range(len(g)):
-                ahrs.update(g[i], a[i], m[i])
-                ahrs.get_quaternion()
-
-        steppers["imufusion"] = fusion_loop
-    except ImportError:
-        pass
-    return steppers
+    return {name: _PEER_LOOPS[name] for name in available_peers()}
 
 
 def run_all() -> dict:
