@@ -13,6 +13,7 @@ from __future__ import annotations
 import gc
 import os
 import sys
+from pathlib import Path
 from dataclasses import dataclass, field, replace
 from typing import Callable, Protocol
 
@@ -66,7 +67,7 @@ class Game:
     fps: float = 0.0
     board_offer: str | None = None  # a board plugged in while on keyboard
     seed: int = 0
-    config_dir: object = None
+    config_dir: Path | None = None
     virtual_board: object = None  # the simulated board behind --virtual
 
     # -------------------------------------------------------- input
@@ -239,8 +240,10 @@ class Calibration:
     def complete_step(self) -> None:
         game = self.game
         if self.step == "down":
-            if game.tracker:
-                bias = game.tracker.tracking.hold_still(list(game.tracker.recent)[-int(HOLD_S["down"] * 200):])
+            if game.tracker and game.tracker.recent:
+                newest = game.tracker.recent[-1].t
+                hold = [s for s in game.tracker.recent if s.t >= newest - HOLD_S["down"]]
+                bias, self.poses["down"] = game.tracker.tracking.hold_still(hold)
                 if not bias.ok:
                     return self.fail(bias.message)
             result = arm_down(game.avatar, self.poses["down"])
@@ -567,7 +570,7 @@ class App:
     """The window, the clock and the current screen."""
 
     def __init__(self, prefs: Preferences | None = None, input_choice: str | None = None,
-                 config_dir: object = None, seed: int = 0, size: tuple[int, int] = WINDOW) -> None:
+                 config_dir: Path | None = None, seed: int = 0, size: tuple[int, int] = WINDOW) -> None:
         pygame.init()
         # The link's reader thread must get the GIL promptly while frames draw: switch
         # threads every 0.5 ms rather than Python's default 5 ms (input latency).

@@ -132,8 +132,8 @@ def run_trial(profile: PlayerProfile, seed: int, gestures: int = 10) -> TrialRes
     for s in samples:
         if not calibrated and s.t >= down[1] and not down_poses:
             # "Hold still" ended: learn the bias, then redo the hold with it.
-            bias = tracking.hold_still(still)
-            down_poses = [p for p, x in zip(tracking.refilter(still), still) if _within(x.t, down, POSE_WINDOW_S)]
+            bias, redone = tracking.hold_still(still)
+            down_poses = [p for p, x in zip(redone, still) if _within(x.t, down, POSE_WINDOW_S)]
         pose = tracking.feed(s)
         if not calibrated:
             if _within(s.t, down):

@@ -65,31 +65,25 @@ class Tracking:
         self._last_t = t
         return self._dt
 
-    def refilter(self, samples: Sequence[P.RawSample]) -> list[ArmPose]:
-        """Run these samples again from a fresh start, keeping the learned gyro bias.
+    def hold_still(self, samples: Sequence[P.RawSample]) -> tuple[BiasResult, list[ArmPose]]:
+        """"Hold still": the gyro bias over these samples, and the hold's poses redone with it.
 
-        After "hold still" found the bias, the poses of that same hold are worth
-        recomputing: the filter ran through it with the bias uncorrected.
+        The bias goes to the filter if the samples were still. Either way the
+        samples are run again from a fresh filter state (keeping the best bias
+        known), since the filter first ran through the hold with the bias
+        uncorrected; the poses of the hold are what the wearing calibration uses.
         """
-        bias = self.filter.get_state().bias
-        self.reset()
-        state = self.filter.get_state()
-        state.bias = bias
-        self.filter.set_state(state)
-        return [self.feed(s) for s in samples]
-
-    def hold_still(self, samples: Sequence[P.RawSample]) -> BiasResult:
-        """"Hold still": the gyro bias over these samples, given to the filter if they were still."""
         raw = [s for s in samples if isinstance(s, P.RawSample)]
         if not raw:
             return BiasResult(False, "no raw samples arrived (is the board streaming raw data?)",
-                              np.zeros(3), np.zeros(3), 0.0)
+                              np.zeros(3), np.zeros(3), 0.0), []
         t = np.array([s.t for s in raw])
         gyr = np.array([s.gyr for s in raw]) - self.board.gyro_bias
         acc = np.array([s.acc for s in raw])
         result = startup_bias(t, gyr, acc)
-        if result.ok:
-            state = self.filter.get_state()
-            state.bias = tuple(float(b) for b in result.bias)
-            self.filter.set_state(state)
-        return result
+        bias = tuple(float(b) for b in result.bias) if result.ok else self.filter.get_state().bias
+        self.reset()
+        state = self.filter.get_state()
+        state.bias = bias
+        self.filter.set_state(state)
+        return result, [self.feed(s) for s in raw]

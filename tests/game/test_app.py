@@ -144,3 +144,21 @@ def test_virtual_input_plays_from_a_simulated_board_and_stops_it_on_close(tmp_pa
     finally:
         a.close()
     assert a.game.virtual_board is None and not os.path.exists(board.port)
+
+
+def test_calibrating_a_board_that_keeps_moving_fails_with_the_reason(app):
+    import time
+
+    from tracker.board import VirtualBoard
+
+    with VirtualBoard() as board:  # its simulated arm never holds still
+        app.game.use_board(board.port)
+        assert app.game.tracker.opened.wait(5.0)
+        app.screen = Calibration(app.game, then_play=False)
+        for _ in range(int(6.0 / DT)):  # in real time: the hold is timed in the board's samples too
+            app.frame([], DT)
+            time.sleep(DT)
+            if app.screen.step == "failed":
+                break
+        assert app.screen.step == "failed" and "moved" in app.screen.message
+        assert "R: try again" in app.screen.message
