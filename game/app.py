@@ -620,6 +620,9 @@ class App:
         nxt = self.screen.update(dt)
         if nxt is not None:
             self.screen = nxt
+        if game.tracker and game.tracker.error:  # the board could not be opened: say so, play on
+            game.notices.append(f"{game.tracker.error}; playing on keyboard and mouse")
+            game.use_keyboard()
         self._offer_board(dt)
         game.fps = 0.9 * game.fps + 0.1 * (1.0 / dt) if dt > 0 else game.fps
         self.surface = pygame.display.get_surface() or self.surface

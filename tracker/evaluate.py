@@ -30,6 +30,7 @@ from typing import Callable, Iterator
 import numpy as np
 
 from . import quat as Q
+from .atomic import atomic_write
 from .fusion import FILTERS, make
 
 REQUIRED = {"gyr": 3, "acc": 3, "mag": 3, "quat": 4}
@@ -253,8 +254,6 @@ def markdown_table(results: list[dict]) -> str:
 
 def write_readme_table(readme: str | Path, results: list[dict]) -> None:
     """Replace the table between the markers in ``readme`` (atomically)."""
-    from .atomic import atomic_write
-
     path = Path(readme)
     text = path.read_text()
     if TABLE_BEGIN not in text or TABLE_END not in text:

@@ -162,3 +162,14 @@ def test_calibrating_a_board_that_keeps_moving_fails_with_the_reason(app):
                 break
         assert app.screen.step == "failed" and "moved" in app.screen.message
         assert "R: try again" in app.screen.message
+
+
+def test_a_port_that_cannot_be_opened_falls_back_to_the_keyboard_with_a_notice(tmp_path):
+    a = App(Preferences(input="/dev/ttyNOPE"), config_dir=tmp_path, seed=1)
+    try:
+        assert a.game.tracker is not None and a.game.tracker.opened.wait(5.0)
+        frames(a, 0.1)
+        assert a.game.tracker is None and a.game.source == "keyboard"
+        assert any("no such port" in n and "keyboard" in n for n in a.game.notices)
+    finally:
+        a.close()
