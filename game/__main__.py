@@ -60,7 +60,11 @@ def cmd_play(args: argparse.Namespace) -> int:
 
 def cmd_shots(args: argparse.Namespace) -> int:
     from .showcase import shots
-    for path in shots(args.out):
+    try:
+        written = shots(args.out)
+    except OSError as e:  # the folder cannot be made or written
+        raise UsageError(f"cannot write the screenshots to {args.out}: {e.strerror or e}") from None
+    for path in written:
         print(f"wrote {path}", file=sys.stderr)
     return 0
 

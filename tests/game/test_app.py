@@ -173,3 +173,15 @@ def test_a_port_that_cannot_be_opened_falls_back_to_the_keyboard_with_a_notice(t
         assert any("no such port" in n and "keyboard" in n for n in a.game.notices)
     finally:
         a.close()
+
+
+def test_shots_into_a_folder_that_cannot_be_made_is_one_clear_line():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    r = subprocess.run([sys.executable, "-m", "game", "shots", "--out", "/proc/no/such/folder"],
+                       capture_output=True, text=True, timeout=120, cwd=Path(__file__).resolve().parents[2])
+    assert r.returncode != 0 and "Traceback" not in r.stderr
+    assert r.stderr.strip().splitlines() == [r.stderr.strip().splitlines()[-1]]
+    assert "cannot write the screenshots" in r.stderr
