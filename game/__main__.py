@@ -1,6 +1,7 @@
 """``energyball``: the game's command line (also ``python -m game``).
 
 ``energyball`` plays (``--keyboard``, ``--virtual``, ``--port P``);
+``--headless`` plays simulated matches with a bot instead (no window);
 ``shots`` renders every screen to PNG, ``bench`` measures frame time and
 input latency, ``gestures-eval`` measures gesture recognition on simulated
 players through the whole pipeline.
@@ -23,6 +24,7 @@ class UsageError(Exception):
 
 HEADLESS_HELP = ("energyball: no display found, so the game window cannot open.\n"
                  "  Run it on a desktop, or headless:\n"
+                 "    energyball --headless           (simulated matches: a bot plays)\n"
                  "    energyball shots --out shots    (every screen to PNG)\n"
                  "    energyball gestures-eval        (gesture accuracy, simulated players)\n"
                  "    energyball bench                (frame time and input latency)")
@@ -45,7 +47,15 @@ def display_available() -> bool:
     return True
 
 
+HEADLESS_ONLY = ("matches", "duration", "difficulty", "profile", "faults", "workers", "render", "pty", "json")
+
+
 def cmd_play(args: argparse.Namespace) -> int:
+    if args.headless:
+        return cmd_headless(args)
+    given = [f"--{name}" for name in HEADLESS_ONLY if getattr(args, name) not in (None, False)]
+    if given:
+        raise UsageError(f"{', '.join(given)} only go with --headless")
     if not display_available():
         print(HEADLESS_HELP, file=sys.stderr)
         return 1
@@ -56,6 +66,38 @@ def cmd_play(args: argparse.Namespace) -> int:
     except pygame.error as e:
         raise UsageError(f"cannot open the game window ({e}); for headless use see `energyball shots --help`")
     return app.run()
+
+
+def _profile(path: str | None):
+    """The simulated player's profile file (defaults when None), or a UsageError saying what is wrong."""
+    from .motion_model import PlayerProfile
+    try:
+        return PlayerProfile.load(path) if path else PlayerProfile()
+    except (ValueError, OSError) as e:  # a missing, broken or wrong profile file
+        raise UsageError(str(e) if isinstance(e, ValueError) else f"{path}: {e.strerror or e}") from None
+
+
+def cmd_headless(args: argparse.Namespace) -> int:
+    from tracker.board import Faults
+    from .headless import configs, run_matches
+    try:
+        faults = Faults.parse(args.faults or "")
+    except ValueError as e:
+        raise UsageError(f"--faults: {e}") from None
+    jobs = configs(args.seed, args.matches or 1, duration_s=args.duration or 120.0,
+                   difficulty=args.difficulty or "normal", profile=_profile(args.profile), faults=faults,
+                   render=args.render, pty=args.pty)
+    try:
+        report = run_matches(jobs, workers=args.workers or 1,
+                             progress=lambda text: print(text, file=sys.stderr, flush=True))
+    except OSError as e:  # e.g. no pty could be opened
+        raise UsageError(f"the match could not run: {e}") from None
+    if args.json:
+        print(json.dumps(report))
+    else:
+        for key, value in report["summary"].items():
+            print(f"{key:26s} {value}")
+    return 0
 
 
 def cmd_shots(args: argparse.Namespace) -> int:
@@ -78,13 +120,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 def cmd_gestures_eval(args: argparse.Namespace) -> int:
     from .gesture_eval import evaluate
-    from .motion_model import PlayerProfile
-    try:
-        profile = PlayerProfile.load(args.profile) if args.profile else PlayerProfile()
-    except (ValueError, OSError) as e:  # a missing, broken or wrong profile file
-        raise UsageError(str(e) if isinstance(e, ValueError) else f"{args.profile}: {e.strerror or e}") \
-            from None
-    report = evaluate(profile, args.trials, args.seed, args.gestures,
+    report = evaluate(_profile(args.profile), args.trials, args.seed, args.gestures,
                       progress=lambda text: print(text, file=sys.stderr, flush=True))
     if args.json:
         print(json.dumps(report))
@@ -101,6 +137,13 @@ def _positive(text: str) -> int:
     return value
 
 
+def _seconds(text: str) -> float:
+    value = float(text)
+    if not (value > 0 and value < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a positive number of seconds, not {text}")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="energyball", description=(
         "The EnergyBall game: throw energy balls at zombies with your arm (a tracker board, "
@@ -110,7 +153,18 @@ def build_parser() -> argparse.ArgumentParser:
     source.add_argument("--keyboard", action="store_true", help="play with keyboard and mouse")
     source.add_argument("--virtual", action="store_true", help="play with a virtual board (simulated arm)")
     source.add_argument("--port", help="the board's serial port or pyserial URL (default: find one)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the zombie waves")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the zombie waves (and of the first match)")
+    h = parser.add_argument_group("headless matches (a simulated player, no window)")
+    h.add_argument("--headless", action="store_true", help="play simulated matches with a bot")
+    h.add_argument("--matches", type=_positive, help="how many matches, seeds S, S+1, ... (1)")
+    h.add_argument("--duration", type=_seconds, metavar="SEC", help="play time of a match at most (120)")
+    h.add_argument("--difficulty", choices=("easy", "normal", "hard"), help="the bot's skill (normal)")
+    h.add_argument("--profile", metavar="FILE.json", help="the simulated player (README lists the keys)")
+    h.add_argument("--faults", metavar="SPEC", help="link faults, e.g. corrupt=0.01,drop=0.002,stall=0.5@20")
+    h.add_argument("--workers", type=_positive, help="processes to spread the matches over (1)")
+    h.add_argument("--render", action="store_true", help="draw every frame (dummy video driver)")
+    h.add_argument("--pty", action="store_true", help="send the board's bytes through a real pty and pyserial")
+    h.add_argument("--json", action="store_true", help="print the report as JSON")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
     p = sub.add_parser("gestures-eval", help="measure gesture recognition on simulated players")

@@ -25,8 +25,8 @@ from .arena import Arena
 from .arena_model import Controls
 from .audio import Audio
 from .avatar import Avatar, BodySettings, Wearing
-from .controls import KeyboardMouse, TrackerInput
-from .gestures import GestureMachine, GestureSettings
+from .controls import KeyboardMouse, SampleInput, TrackerInput
+from .gestures import GestureEvent, GestureMachine, GestureSettings
 from .pose import ArmPose
 from .preferences import Preferences, Score, add_score, load_preferences, load_scores, save_preferences
 from .render import Renderer
@@ -56,7 +56,7 @@ class Game:
     audio: Audio
     renderer: Renderer
     keyboard: KeyboardMouse = field(default_factory=KeyboardMouse)
-    tracker: TrackerInput | None = None
+    tracker: SampleInput | None = None  # a TrackerInput, or the headless match's wire
     arena: Arena = field(default_factory=Arena)
     gestures: GestureMachine = field(default_factory=GestureMachine)
     avatar: Avatar = field(default_factory=Avatar)
@@ -69,6 +69,8 @@ class Game:
     seed: int = 0
     config_dir: Path | None = None
     virtual_board: object = None  # the simulated board behind --virtual
+    walker: Callable[[], Controls] | None = None  # who walks the player (None: the keyboard)
+    on_launch: Callable[[GestureEvent], None] | None = None  # told of every launch (headless matches)
 
     # -------------------------------------------------------- input
 
@@ -91,10 +93,15 @@ class Game:
             from tracker.board import VirtualBoard
             self.virtual_board = VirtualBoard().start()
             port = self.virtual_board.port
-        self.tracker = TrackerInput(LinkSettings(port))
+        self.use_source(TrackerInput(LinkSettings(port)))
         # The virtual board's simulated arm wears it ideally and never holds still: it
         # needs (and allows) no wearing calibration.
         self.calibrated = virtual
+
+    def use_source(self, source: SampleInput) -> None:
+        """Take arm poses from ``source`` (a board, or the headless match's wire); calibrate anew."""
+        self.tracker = source
+        self.calibrated = False
         self.avatar.wearing = Wearing()
 
     def use_keyboard(self) -> None:
@@ -311,9 +318,11 @@ class Play:
         for event in game.gestures.update(state):
             if event.kind == "launch":
                 arena.launch(tuple(state.hand), event.direction, event.charge)
+                if game.on_launch:
+                    game.on_launch(event)
         arena.hold(*held_ball(game, state))
         charge_hum(game)
-        events = arena.advance(dt, movement())
+        events = arena.advance(dt, game.walker() if game.walker else movement())
         game.renderer.react(events)
         sounds(game, events)
         if arena.game_over:
@@ -603,8 +612,8 @@ class App:
     def running(self) -> bool:
         return not isinstance(self.screen, Quit)
 
-    def frame(self, events: list[pygame.event.Event], dt: float) -> None:
-        """One frame: events, logic, drawing."""
+    def frame(self, events: list[pygame.event.Event], dt: float, draw: bool = True) -> None:
+        """One frame: events, logic and (unless ``draw`` is False: headless matches) drawing."""
         game = self.game
         for event in events:
             if event.type == pygame.QUIT:
@@ -625,8 +634,9 @@ class App:
             game.use_keyboard()
         self._offer_board(dt)
         game.fps = 0.9 * game.fps + 0.1 * (1.0 / dt) if dt > 0 else game.fps
-        self.surface = pygame.display.get_surface() or self.surface
-        self.screen.draw(self.surface)
+        if draw:
+            self.surface = pygame.display.get_surface() or self.surface
+            self.screen.draw(self.surface)
 
     def _offer_board(self, dt: float) -> None:
         """On keyboard, look for a board now and then; offer to switch to it."""

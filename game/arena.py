@@ -355,7 +355,9 @@ class Arena:
     ``seed``: the same seed and inputs give the same game.
 
     State the renderer reads: ``player``, ``zombies``, ``balls``, ``held``,
-    ``score``, ``wave``, ``time``, ``game_over``; :attr:`alive_zombies`,
+    ``score``, ``wave``, ``time``, ``game_over``; tallies for reports:
+    ``shots`` (balls launched), ``hits`` (balls that struck a zombie),
+    ``kills`` (zombies blown into the sky); :attr:`alive_zombies`,
     :attr:`wave_progress`, :attr:`next_wave_in`, :attr:`interpolation`. A
     walking zombie's ``velocity`` is its knock-back slide (zero when none); a
     flying one's, its flight. A zombie marked GONE is removed at the next step.
@@ -388,6 +390,7 @@ class Arena:
         self.balls: list[Ball] = []
         self.held = HeldBall()
         self.score = 0
+        self.shots = self.hits = self.kills = 0
         self.wave = 0
         self.ticks = 0
         self.time = 0.0
@@ -448,6 +451,7 @@ class Arena:
                     charge=charge)
         ball.trail.append(origin)
         self.balls.append(ball)
+        self.shots += 1
         self._pending.append(ArenaEvent("launch", origin, charge))
         return ball
 
@@ -767,6 +771,7 @@ class Arena:
         """A ball hits ``zombie``: damage, and either blown into the sky or knocked back. Returns the points."""
         s, rng = self.settings, self.rng
         points = s.hit_score(ball.charge, self.wave)
+        self.hits += 1
         self.score += points
         vx, vy, vz = ball.velocity
         speed = math.sqrt(vx * vx + vy * vy + vz * vz)
@@ -777,6 +782,7 @@ class Arena:
             push = s.blown_push_m_s * (1.0 + ball.charge)
             up = float(rng.uniform(s.blown_up_min_m_s, s.blown_up_max_m_s))
             zombie.state = ZombieState.FLYING
+            self.kills += 1
             zombie.age = 0.0
             zombie.velocity = (ux * push, uy * push, up + uz * push)
             zombie.spin_rate = float(rng.uniform(s.spin_min, s.spin_max)) * (1.0 if rng.random() < 0.5 else -1.0)

@@ -159,6 +159,8 @@ class Avatar:
         self.bones = skeleton(self.body)
         self.local = {b.name: IDENTITY for b in self.bones}
         self.world_rot, self.world_pos = {}, {}
+        self._arm_bones = _subtree(self.bones, f"{self.body.side}_upper_arm")
+        self._body_key: tuple | None = None
         self.forward_kinematics()
 
     # ------------------------------------------------------------ kinematics
@@ -168,10 +170,15 @@ class Avatar:
 
         With an ``arm`` pose the tracked arm takes seed 000's chain (see
         :meth:`_tracked`) instead of parent * local. Scalar quaternion math
-        (:mod:`tracker.fusion.qmath`): this runs once per sample.
+        (:mod:`tracker.fusion.qmath`): this runs once per frame. While the body
+        stands as before (position, yaw and local rotations unchanged) only the
+        tracked arm's bones are posed again.
         """
         root = (math.cos(0.5 * self.body_yaw), 0.0, 0.0, math.sin(0.5 * self.body_yaw))
-        for bone in self.bones:
+        key = (self.body_yaw, self.position, tuple(self.local.values()))
+        bones = self._arm_bones if key == self._body_key else self.bones
+        self._body_key = key
+        for bone in bones:
             if bone.parent is None:
                 parent_rot, parent_pos = root, (self.position[0], self.position[1], 0.0)
             else:
@@ -220,3 +227,12 @@ class Avatar:
 
 def _add(a: Vec, b: Vec) -> Vec:
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+def _subtree(bones: tuple[Bone, ...], name: str) -> tuple[Bone, ...]:
+    """The bone called ``name`` and every bone below it, parents first."""
+    names = {name}
+    for bone in bones:
+        if bone.parent in names:
+            names.add(bone.name)
+    return tuple(b for b in bones if b.name in names)

@@ -15,6 +15,7 @@ import math
 import threading
 from collections import deque
 from dataclasses import dataclass
+from typing import Iterable
 
 import numpy as np
 
@@ -77,7 +78,54 @@ class KeyboardMouse:
         return tuple(float(c) for c in Q.multiply(arm, Q.conjugate(self.mount)))  # type: ignore[return-value]
 
 
-class TrackerInput:
+class SampleInput:
+    """Board samples through :mod:`game.tracking` to ArmPoses, keeping the last seconds of raw ones.
+
+    The recent raw samples serve "hold still" and the live plots (bounded
+    memory). Subclasses say where the samples come from (:meth:`poll`).
+    """
+
+    def __init__(self, tracking: Tracking | None = None) -> None:
+        self.tracking = tracking or Tracking()
+        self.status = ""  # what the source is doing, in words (the HUD shows it)
+        self.error: str | None = None  # why the source cannot be used, if it cannot
+        self.opened = threading.Event()  # set once the source is usable (or has failed)
+        self.last_pose: ArmPose | None = None
+        self.last_seq: int | None = None
+        self.recent: deque[P.RawSample] = deque(maxlen=int(RECENT_SECONDS * PLOT_RATE))
+
+    def feed(self, samples: Iterable[P.RawSample | P.FusedSample]) -> ArmPose | None:
+        """Run every sample through the pipeline; the newest pose (or the last one)."""
+        for s in samples:
+            self.last_pose = self.tracking.feed(s)
+            self.last_seq = s.seq
+            if isinstance(s, P.RawSample):
+                self.recent.append(s)
+        return self.last_pose
+
+    def poll(self) -> ArmPose | None:
+        """Feed what arrived since the last call; the newest pose."""
+        raise NotImplementedError
+
+    @property
+    def connected(self) -> bool:
+        return self.opened.is_set() and self.error is None
+
+    def health(self) -> LinkHealth | None:
+        return None
+
+    def close(self) -> None:
+        """Let go of the source."""
+
+    def plot_series(self) -> dict[str, np.ndarray]:
+        """The last PLOT_SECONDS of gyroscope, accelerometer and flex readings, for the live plots."""
+        samples = list(self.recent)[-int(PLOT_SECONDS * PLOT_RATE):]
+        return {"gyroscope (rad/s)": np.array([s.gyr for s in samples]).reshape(-1, 3),
+                "accelerometer (m/s2)": np.array([s.acc for s in samples]).reshape(-1, 3),
+                "flex (ADC)": np.array([s.flex_adc for s in samples]).reshape(-1, 1)}
+
+
+class TrackerInput(SampleInput):
     """A board read in the background; :meth:`poll` gives the newest ArmPose.
 
     Opening (the handshake can take two seconds) happens in a thread, so the
@@ -85,15 +133,9 @@ class TrackerInput:
     """
 
     def __init__(self, settings: LinkSettings, tracking: Tracking | None = None) -> None:
+        super().__init__(tracking)
         self.link = Link(settings)
-        self.tracking = tracking or Tracking()
         self.status = f"connecting to {settings.port}..."
-        self.error: str | None = None
-        self.opened = threading.Event()
-        self.last_pose: ArmPose | None = None
-        self.last_seq: int | None = None
-        # the last raw samples: for "hold still" and the live plots (bounded memory)
-        self.recent: deque[P.RawSample] = deque(maxlen=int(RECENT_SECONDS * PLOT_RATE))
         threading.Thread(target=self._open, name="tracker-open", daemon=True).start()
 
     def _open(self) -> None:
@@ -107,7 +149,7 @@ class TrackerInput:
 
     @property
     def connected(self) -> bool:
-        return self.opened.is_set() and self.error is None and self.link.connected
+        return super().connected and self.link.connected
 
     def health(self) -> LinkHealth | None:
         return self.link.health() if self.opened.is_set() and self.error is None else None
@@ -116,19 +158,7 @@ class TrackerInput:
         """Feed every waiting sample through the pipeline; the newest pose (or the last one)."""
         if not self.opened.is_set() or self.error:
             return self.last_pose
-        for s in self.link.drain():
-            self.last_pose = self.tracking.feed(s)
-            self.last_seq = s.seq
-            if isinstance(s, P.RawSample):
-                self.recent.append(s)
-        return self.last_pose
-
-    def plot_series(self) -> dict[str, np.ndarray]:
-        """The last PLOT_SECONDS of gyroscope, accelerometer and flex readings, for the live plots."""
-        samples = list(self.recent)[-int(PLOT_SECONDS * PLOT_RATE):]
-        return {"gyroscope (rad/s)": np.array([s.gyr for s in samples]).reshape(-1, 3),
-                "accelerometer (m/s2)": np.array([s.acc for s in samples]).reshape(-1, 3),
-                "flex (ADC)": np.array([s.flex_adc for s in samples]).reshape(-1, 1)}
+        return self.feed(self.link.drain())
 
     def close(self) -> None:
         if self.opened.is_set() and self.error is None:

@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -36,8 +36,8 @@ from tracker.motion import SensorReading
 from tracker.sim import Motion, Simulator
 
 from .avatar import Avatar, BodySettings
-from .gestures import GestureMachine
-from .motion_model import PlayerProfile, Session, session
+from .gestures import GestureEvent, GestureMachine
+from .motion_model import PlayerProfile, Session, TrueLaunch, session
 from .pose import ArmPose
 from .tracking import Tracking
 from .wearing import arm_down_then_forward
@@ -147,25 +147,28 @@ def run_trial(profile: PlayerProfile, seed: int, gestures: int = 10) -> TrialRes
                 calibrated = True
             continue
         launches += [e for e in machine.update(avatar.update(pose)) if e.kind == "launch"]
-    _score(script, launches, result)
+    score_launches(script.launches, script.idle_intervals, launches, result)
     return result
 
 
-def _score(script: Session, launches: list, result: TrialResult) -> None:
-    unmatched = list(script.launches)
+def score_launches(truth: Sequence[TrueLaunch], idle_intervals: Sequence[tuple[float, float]],
+                   launches: Sequence[GestureEvent], result: TrialResult) -> list[TrueLaunch]:
+    """Match reported launches to the true ones (module docstring) into ``result``; the unmatched true ones."""
+    unmatched = list(truth)
     for event in launches:
-        truth = next((x for x in unmatched
+        match = next((x for x in unmatched
                       if x.t_straight_start - MATCH_BEFORE_S <= event.t <= x.t_straight + MATCH_AFTER_S), None)
-        if truth is None:
+        if match is None:
             result.false_launches += 1
-            result.idle_false_launches += any(_within(event.t, i) for i in script.idle_intervals)
+            result.idle_false_launches += any(_within(event.t, i) for i in idle_intervals)
             continue
-        unmatched.remove(truth)
+        unmatched.remove(match)
         result.matched += 1
-        result.latencies_ms.append(1000.0 * (event.t - truth.t_straight))
-        cos = float(np.clip(np.dot(event.direction, truth.direction_body), -1.0, 1.0))
+        result.latencies_ms.append(1000.0 * (event.t - match.t_straight))
+        cos = float(np.clip(np.dot(event.direction, match.direction_body), -1.0, 1.0))
         result.aim_errors_deg.append(math.degrees(math.acos(cos)))
-    result.idle_minutes = sum(t1 - t0 for t0, t1 in script.idle_intervals) / 60.0
+    result.idle_minutes = sum(t1 - t0 for t0, t1 in idle_intervals) / 60.0
+    return unmatched
 
 
 def _run(args: tuple[PlayerProfile, int, int]) -> TrialResult:

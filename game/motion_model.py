@@ -47,6 +47,7 @@ came before it.
 
 from __future__ import annotations
 
+import bisect
 import copy
 import json
 import math
@@ -68,7 +69,7 @@ Interval = tuple[float, float]
 
 LAUNCH_THRESHOLD_DEG = 25.0  # a launch happens when the straightening elbow crosses this
 IDEAL_MOUNT = np.asarray(Wearing().mount)  # q_LB: the bone frame in the ideally worn sensor's
-_X, _Z = (1.0, 0.0, 0.0), (0.0, 0.0, 1.0)
+_Z = (0.0, 0.0, 1.0)
 _CHANNELS = ("az", "el", "tw", "sx", "sy", "flex")  # degrees
 
 
@@ -181,7 +182,7 @@ class PlayerProfile:
 def minimum_jerk(tau: ArrayLike) -> Array:
     """s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5 on [0, 1], clamped outside (Flash and Hogan 1985)."""
     s = np.clip(np.asarray(tau, dtype=float), 0.0, 1.0)
-    return s**3 * (10.0 - 15.0 * s + 6.0 * s**2)
+    return s * s * s * (10.0 - 15.0 * s + 6.0 * s * s)
 
 
 def minimum_jerk_velocity(tau: ArrayLike) -> Array:
@@ -205,33 +206,107 @@ def direction(azimuth_deg: ArrayLike, elevation_deg: ArrayLike) -> Array:
     return np.stack([np.sin(el) * np.sin(az), np.sin(el) * np.cos(az), -np.cos(el)], axis=-1)
 
 
+def _aim(a: Array, b: Array, c: Array) -> Array:
+    """Rz(a) Rx(b) Rz(c), the three Hamilton products (Sola 2017, sec. 1.2.2) written out:
+    (cos(b/2) cos((a+c)/2), sin(b/2) cos((a-c)/2), sin(b/2) sin((a-c)/2), cos(b/2) sin((a+c)/2))."""
+    half = 0.5 * np.array([b, a + c, a - c])
+    (cb, cp, cm), (sb, sp, sm) = np.cos(half), np.sin(half)
+    return np.stack([cb * cp, sb * cm, sb * sm, cb * sp], axis=-1)
+
+
 def _angle_deg(a: Array, b: Array) -> float:
     return math.degrees(math.acos(float(np.clip(np.dot(a, b), -1.0, 1.0))))
 
 
-@dataclass
-class _Track:
-    """One channel's keyframes: minimum-jerk moves between them, held before and after."""
+@dataclass(frozen=True)
+class _Segments:
+    """Every channel's moves end to end, so that all channels are evaluated at once.
 
-    t: list[float]
-    v: list[float]
+    A channel with n keyframes has n + 1 segments: a hold of the first value
+    before them, the n - 1 moves, and a hold of the last value after them, so
+    segment ``searchsorted(knots, t, "right")`` of the channel covers t.
+    """
 
-    def move(self, t0: float, t1: float, value: float) -> None:
-        if t0 < self.t[-1] - 1e-9 or t1 <= t0:
-            raise ValueError(f"a move over {t0:.3f}-{t1:.3f} s overlaps the previous one")
-        if t0 > self.t[-1]:
-            self.t.append(t0)
-            self.v.append(self.v[-1])
-        self.t.append(t1)
-        self.v.append(float(value))
+    knots: tuple[Array, ...]  # each channel's keyframe times
+    first: Array  # (C, 1) each channel's first segment in ``table``
+    table: Array  # (4, segments): start time, duration, start value and change of each
+
+    @classmethod
+    def of(cls, knots: list[list[float]], values: list[list[float]]) -> _Segments:
+        """The segments of channels with these keyframe times and values."""
+        columns = [cls._channel(np.array(k), np.array(v)) for k, v in zip(knots, values)]
+        sizes = np.array([c.shape[1] for c in columns])
+        return cls(tuple(np.array(k) for k in knots), (np.cumsum(sizes) - sizes)[:, None],
+                   np.concatenate(columns, axis=1))
+
+    @staticmethod
+    def _channel(k: Array, v: Array) -> Array:
+        """One channel's segments (class docstring) as the columns of a (4, n + 1) table."""
+        return np.array([np.concatenate([k[:1], k]),
+                         np.concatenate([[1.0], np.diff(k), [1.0]]),
+                         np.concatenate([v[:1], v[:-1], v[-1:]]),
+                         np.concatenate([[0.0], np.diff(v), [0.0]])])
 
     def __call__(self, t: Array) -> Array:
-        knots, values = np.asarray(self.t), np.asarray(self.v)
-        if len(knots) == 1:
-            return np.full(t.shape, values[0])
-        i = np.clip(np.searchsorted(knots, t, side="right") - 1, 0, len(knots) - 2)
-        tau = (t - knots[i]) / (knots[i + 1] - knots[i])
-        return values[i] + (values[i + 1] - values[i]) * minimum_jerk(tau)
+        """Every channel at times ``t`` (M,), as (C, M)."""
+        i = np.array([np.searchsorted(k, t, side="right") for k in self.knots]) + self.first
+        start, duration, value, change = (row.take(i) for row in self.table)
+        return value + change * minimum_jerk((t - start) / duration)
+
+
+class _Keyframes:
+    """Every channel's keyframes: minimum-jerk moves between them, held before and after."""
+
+    def __init__(self, start: dict[str, float]) -> None:
+        self._t = {c: [0.0] for c in start}
+        self._v = {c: [float(v)] for c, v in start.items()}
+        self._segments: _Segments | None = None
+
+    def move(self, channel: str, t0: float, t1: float, value: float) -> None:
+        knots, values = self._t[channel], self._v[channel]
+        if t0 < knots[-1] - 1e-9 or t1 <= t0:
+            raise ValueError(f"a move over {t0:.3f}-{t1:.3f} s overlaps the previous one")
+        if t0 > knots[-1]:
+            knots.append(t0)
+            values.append(values[-1])
+        knots.append(t1)
+        values.append(float(value))
+        self._segments = None
+
+    def forget_before(self, t: float) -> None:
+        """Drop the keyframes no time from ``t`` on needs (each channel keeps its last one before ``t``)."""
+        for knots, values in zip(self._t.values(), self._v.values()):
+            i = bisect.bisect_right(knots, t) - 1
+            if i > 0:
+                del knots[:i], values[:i]
+                self._segments = None
+
+    def __call__(self, t: Array) -> Array:
+        """Every channel at times ``t`` (M,), as (C, M)."""
+        if self._segments is None:
+            self._segments = _Segments.of(list(self._t.values()), list(self._v.values()))
+        return self._segments(t)
+
+
+def _sine(amplitude: ArrayLike, freq_hz: ArrayLike, phase: ArrayLike, t: Array) -> Array:
+    """amplitude sin(2 pi freq t + phase)."""
+    return amplitude * np.sin(2 * np.pi * freq_hz * t + phase)
+
+
+@dataclass(frozen=True)
+class _Tremor:
+    """Steady oscillations amplitude sin(2 pi freq t + phase), each on one channel (a row)."""
+
+    rows: tuple[int, ...]
+    amplitude: Array
+    freq_hz: Array
+    phase: Array
+
+    def add_to(self, channels: Array, t: Array) -> None:
+        """Add every oscillation at times ``t`` (M,) to its row of ``channels`` (C, M)."""
+        waves = _sine(self.amplitude[:, None], self.freq_hz[:, None], self.phase[:, None], t)
+        for row, wave in zip(self.rows, waves):
+            channels[row] = channels[row] + wave
 
 
 @dataclass(frozen=True)
@@ -243,13 +318,11 @@ class _Wave:
     t1: float
     amplitude: float
     freq_hz: float
-    phase: float = 0.0
-    ramp: float = math.inf  # inf: no envelope (the whole session)
+    phase: float
+    ramp: float
 
     def __call__(self, t: Array) -> Array:
-        wave = self.amplitude * np.sin(2 * np.pi * self.freq_hz * (t - self.t0) + self.phase)
-        if math.isinf(self.ramp):
-            return wave
+        wave = _sine(self.amplitude, self.freq_hz, self.phase, t - self.t0)
         envelope = minimum_jerk((t - self.t0) / self.ramp) * minimum_jerk((self.t1 - t) / self.ramp)
         return wave * envelope
 
@@ -323,19 +396,27 @@ class Script:
         rng = self.rng()
         self.rest_flex = float(rng.uniform(2.0, 8.0))  # relaxed elbow when hanging
         self.now = 0.0
-        self._tracks = {c: _Track([0.0], [self.rest_flex if c == "flex" else 0.0]) for c in _CHANNELS}
+        self._keyframes = _Keyframes({c: self.rest_flex if c == "flex" else 0.0 for c in _CHANNELS})
+        self._tremor = self._draw_tremor(rng)
         self._waves: list[_Wave] = []
-        if profile.tremor_deg > 0:  # two components per swing axis, half as much twist
-            for channel, amp in (("sx", 1.0), ("sy", 1.0), ("tw", 0.5)):
-                for _ in range(2):
-                    self._waves.append(_Wave(channel, 0.0, math.inf, amp * profile.tremor_deg / 2,
-                                             rng.uniform(8.0, 12.0), rng.uniform(0, 2 * np.pi)))
         self.launches: list[TrueLaunch] = []
         self.idle_intervals: list[Interval] = []
         self.segments: list[Segment] = []
         self.calibration_intervals: tuple[Interval, Interval] | None = None
 
     # -------------------------------------------------------- helpers
+
+    def _draw_tremor(self, rng: np.random.Generator) -> _Tremor:
+        """Two 8-12 Hz components per swing axis, half as much twist (none at tremor 0)."""
+        rows, amplitude, freq, phase = [], [], [], []
+        if self.profile.tremor_deg > 0:
+            for channel, amp in (("sx", 1.0), ("sy", 1.0), ("tw", 0.5)):
+                for _ in range(2):
+                    rows.append(_CHANNELS.index(channel))
+                    amplitude.append(amp * self.profile.tremor_deg / 2)
+                    freq.append(rng.uniform(8.0, 12.0))
+                    phase.append(rng.uniform(0, 2 * np.pi))
+        return _Tremor(tuple(rows), np.array(amplitude), np.array(freq), np.array(phase))
 
     def rng(self) -> np.random.Generator:
         """A fresh generator from the next child of the session's seed."""
@@ -346,7 +427,7 @@ class Script:
 
     def _move(self, t0: float, duration: float, **targets: float) -> float:
         for channel, value in targets.items():
-            self._tracks[channel].move(t0, t0 + duration, value)
+            self._keyframes.move(channel, t0, t0 + duration, value)
         return t0 + duration
 
     def _wave(self, channel: str, t0: float, t1: float, amplitude: float, freq_hz: float,
@@ -377,6 +458,26 @@ class Script:
         self._finish("calibration", t0, t + self._dur(rng, 0.4, 0.6))
         self.calibration_intervals = (down, forward)
         return down, forward
+
+    def wait_until(self, t: float) -> None:
+        """Start the next segment no earlier than ``t`` (the arm holds still until then)."""
+        self.now = max(self.now, float(t))
+
+    def reach(self, azimuth_deg: float, elevation_deg: float, kind: str = "reach") -> float:
+        """Move the straight arm to point at (azimuth, elevation) from now, one minimum-jerk
+        reach (elbow relaxed, no twist); returns when it arrives. (0, 0) lowers it."""
+        rng, t0 = self.rng(), self.now
+        start = self.pointing_at(t0)
+        aim = direction(azimuth_deg, elevation_deg)
+        t = self._move(t0, self._reach_time(rng, _angle_deg(start, aim)), az=azimuth_deg,
+                       el=elevation_deg, tw=0.0, flex=self.rest_flex)
+        self._finish(kind, t0, t)
+        return t
+
+    def pointing_at(self, t: float) -> Array:
+        """The body-frame unit direction of the upper arm at ``t``, without sway and tremor."""
+        c = self.channels([t])
+        return direction(float(c["az"][0]), float(c["el"][0]))
 
     def gesture(self, targets: Sequence[tuple[float, float]] | None = None) -> list[TrueLaunch]:
         """Raise the arm at a target, flex (load), hold (spin), straighten (launch), lower.
@@ -494,34 +595,60 @@ class Script:
 
     # -------------------------------------------------------- the result
 
+    def _degrees(self, t: Array) -> Array:
+        """Every channel at times ``t`` (M,), as (channels, M) in degrees."""
+        out = self._keyframes(t)
+        self._tremor.add_to(out, t)
+        lo, hi = (t.min(), t.max()) if len(t) else (math.inf, -math.inf)
+        for wave in self._waves:  # zero outside its span: evaluate only there
+            if wave.t0 < hi and wave.t1 > lo:
+                inside = (t > wave.t0) & (t < wave.t1)
+                out[_CHANNELS.index(wave.channel), inside] += wave(t[inside])
+        return out
+
     def channels(self, t: ArrayLike) -> dict[str, Array]:
         """Every channel (degrees) at times ``t``: keyframes plus oscillations."""
-        t = np.atleast_1d(np.asarray(t, dtype=float))
-        out = {c: track(t) for c, track in self._tracks.items()}
-        for wave in self._waves:
-            if math.isinf(wave.t1):
-                out[wave.channel] = out[wave.channel] + wave(t)
-            else:  # zero outside its span: evaluate only there
-                inside = (t > wave.t0) & (t < wave.t1)
-                out[wave.channel][inside] += wave(t[inside])
-        return out
+        return dict(zip(_CHANNELS, self._degrees(np.atleast_1d(np.asarray(t, dtype=float)))))
+
+    def _radians(self, t: ArrayLike) -> Array:
+        """Every channel at times ``t``, as (channels, N) in radians."""
+        return np.radians(self._degrees(np.atleast_1d(np.asarray(t, dtype=float))))
+
+    @staticmethod
+    def _root(c: Array) -> Array:
+        """q_WL from the channels (radians, in the order of ``_CHANNELS``) (module docstring)."""
+        az, el, tw, sx, sy = c[:5]
+        sway = Q.from_rotvec(np.stack([sx, sy, np.zeros_like(sx)], axis=-1))
+        return Q.multiply(Q.multiply(_aim(-az, el, tw), sway), Q.conjugate(IDEAL_MOUNT))
 
     def root(self, t: ArrayLike) -> Array:
         """q_WL(t), the upper-arm link (= ideally worn sensor) in the world (module docstring)."""
-        c = {k: np.radians(v) for k, v in self.channels(t).items()}
-        q = Q.multiply(Q.from_axis_angle(_Z, -c["az"]), Q.from_axis_angle(_X, c["el"]))
-        q = Q.multiply(q, Q.from_axis_angle(_Z, c["tw"]))
-        q = Q.multiply(q, Q.from_rotvec(np.stack([c["sx"], c["sy"], np.zeros_like(c["sx"])], axis=-1)))
-        return Q.multiply(q, Q.conjugate(IDEAL_MOUNT))
+        return self._root(self._radians(t))
+
+    @staticmethod
+    def _elbow(c: Array) -> Array:
+        """The elbow angle (N, 1) from the channels in radians."""
+        return c[_CHANNELS.index("flex")][:, None]
 
     def joints(self, t: ArrayLike) -> Array:
         """The elbow angle in radians, (N, 1)."""
-        return np.radians(self.channels(t)["flex"])[:, None]
+        return self._elbow(self._radians(t))
+
+    def pose(self, t: ArrayLike) -> tuple[Array, Array]:
+        """:meth:`root` and :meth:`joints` together, from one evaluation of the channels."""
+        c = self._radians(t)
+        return self._root(c), self._elbow(c)
+
+    def forget_before(self, t: float) -> None:
+        """Let go of the motion before ``t`` (keyframes, ended oscillations): a script that is
+        extended for an hour stays small and fast. The motion from ``t`` on is unchanged."""
+        self._keyframes.forget_before(t)
+        self._waves = [w for w in self._waves if w.t1 > t]
 
     def build(self) -> Session:
         """The session so far; later segments added to this script do not change it."""
         frozen = copy.deepcopy(self)
-        return Session(Motion(frozen.root, frozen.joints), self.now, list(self.launches),
+        return Session(Motion(frozen.root, frozen.joints, frozen.pose), self.now, list(self.launches),
                        list(self.idle_intervals), self.calibration_intervals, list(self.segments))
 
 

@@ -50,13 +50,11 @@ class Tracking:
         """The arm pose after one sample."""
         if isinstance(sample, P.FusedSample):
             return ArmPose(tuple(sample.q), sample.flex_deg, sample.t)
-        dt = self._step(sample.t)
-        corrected = self.board.apply(sample)
-        mag = corrected.mag if self.use_magnetometer and sample.mag is not None else None
-        q = self.filter.update(tuple(corrected.gyr), tuple(corrected.acc),
-                               None if mag is None else tuple(mag), dt)
-        flex = self.flex.update(sample.flex_adc, sample.t)
-        return ArmPose(q, flex.deg, sample.t)
+        t = sample.t
+        dt = self._step(t)
+        acc, gyr, mag = self.board.apply(sample)
+        q = self.filter.update(gyr, acc, mag if self.use_magnetometer else None, dt)
+        return ArmPose(q, self.flex.update(sample.flex_adc, t).deg, t)
 
     def _step(self, t: float) -> float:
         """The time since the last sample; the last good one after a gap or a restart."""

@@ -28,6 +28,9 @@ from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
 from . import protocol as P
 from .motion import MotionSource, SensorReading
 
@@ -63,12 +66,83 @@ class BoardSettings:
 
 @dataclass
 class Faults:
-    """Faults injected into the byte stream the board sends (seeded)."""
+    """Faults injected into the byte stream the board sends (seeded).
+
+    ``stalls``: (at_s, seconds) pairs, board time; the headless match freezes
+    the board's loop for each (samples are skipped, not queued). The
+    pty board's tests call :meth:`VirtualBoard.stall` instead.
+    """
 
     corrupt_rate: float = 0.0  # probability that a byte gets one random bit flipped
     drop_rate: float = 0.0  # probability that a byte is lost
     silent: bool = False  # the board sends nothing at all (a dead or wrong device)
     seed: int = 0
+    stalls: tuple[tuple[float, float], ...] = ()
+
+    @classmethod
+    def parse(cls, spec: str, seed: int = 0) -> "Faults":
+        """Faults from text like ``corrupt=0.01,drop=0.002,stall=0.5@20`` (ValueError saying what is wrong).
+
+        corrupt, drop: per-byte probabilities in [0, 1]; stall=S@T: the board
+        freezes for S seconds at T seconds (may be given more than once).
+        """
+        corrupt, drop, stalls = 0.0, 0.0, []
+        for item in filter(None, (part.strip() for part in spec.split(","))):
+            name, _, value = item.partition("=")
+            try:
+                if name in ("corrupt", "drop"):
+                    rate = float(value)
+                    if not 0.0 <= rate <= 1.0:
+                        raise ValueError
+                    corrupt, drop = (rate, drop) if name == "corrupt" else (corrupt, rate)
+                elif name == "stall":
+                    seconds, at = (float(v) for v in value.split("@"))
+                    if not (math.isfinite(seconds) and math.isfinite(at) and seconds > 0 and at >= 0):
+                        raise ValueError
+                    stalls.append((at, seconds))
+                else:
+                    raise KeyError(name)
+            except KeyError:
+                raise ValueError(f"unknown fault {name!r} in {spec!r} (known: corrupt, drop, stall)") from None
+            except ValueError:
+                raise ValueError(f"bad fault {item!r}: use corrupt=P or drop=P with P in 0..1, "
+                                 "or stall=SECONDS@AT_SECONDS") from None
+        return cls(corrupt_rate=corrupt, drop_rate=drop, seed=seed, stalls=tuple(sorted(stalls)))
+
+    def stalled(self, t: float) -> bool:
+        """Whether the board's loop is frozen at board time ``t``."""
+        return any(at <= t < at + seconds for at, seconds in self.stalls)
+
+
+class FaultInjector:
+    """Applies :class:`Faults`' byte corruption and loss to outgoing bytes, and counts them."""
+
+    def __init__(self, faults: Faults) -> None:
+        self.faults = faults
+        self.bytes_corrupted = 0
+        self.bytes_dropped = 0
+        self._rng = random.Random(faults.seed)
+
+    def apply(self, data: bytes) -> bytes:
+        """``data`` as it arrives: each byte lost with ``drop_rate``, else a bit flipped with ``corrupt_rate``."""
+        f = self.faults
+        if not (f.corrupt_rate or f.drop_rate):
+            return data
+        out = bytearray()
+        rng = self._rng
+        for b in data:
+            if rng.random() < f.drop_rate:
+                self.bytes_dropped += 1
+                continue
+            if rng.random() < f.corrupt_rate:
+                b ^= 1 << rng.randrange(8)
+                self.bytes_corrupted += 1
+            out.append(b)
+        return bytes(out)
+
+    def garble(self, data: bytes) -> bytes:
+        """What a UART at the wrong baud makes of the bytes: noise of about the same amount."""
+        return bytes(self._rng.randrange(256) for _ in data)
 
 
 @dataclass
@@ -113,7 +187,7 @@ class VirtualBoard:
         self.sent: deque[P.RawSample | P.FusedSample] = deque(maxlen=self.settings.keep_sent or None)
         # (seq, time.monotonic() just after the bytes were written), for latency measurements
         self.sent_at: deque[tuple[int, float]] = deque(maxlen=self.settings.keep_sent or None)
-        self._rng = random.Random(self.faults.seed)
+        self._injector = FaultInjector(self.faults)
         self._lock = threading.RLock()
         self._fds: tuple[int, int] | None = None
         self._stall_until = 0.0
@@ -315,7 +389,9 @@ class VirtualBoard:
         with self._lock:
             if self._fds is None or self.faults.silent:
                 return
-            data = self._garble(self._inject(data)) if not self._baud_matches() else self._inject(data)
+            data = self._injector.apply(data)
+            if not self._baud_matches():
+                data = self._injector.garble(data)
             try:
                 n = os.write(self._fds[0], data)
             except OSError as e:
@@ -324,23 +400,6 @@ class VirtualBoard:
                 n = 0
             self.counters.bytes_sent += n
             self.counters.bytes_lost += len(data) - n
-
-    def _inject(self, data: bytes) -> bytes:
-        f = self.faults
-        if not (f.corrupt_rate or f.drop_rate):
-            return data
-        out = bytearray()
-        for b in data:
-            if self._rng.random() < f.drop_rate:
-                continue
-            if self._rng.random() < f.corrupt_rate:
-                b ^= 1 << self._rng.randrange(8)
-            out.append(b)
-        return bytes(out)
-
-    def _garble(self, data: bytes) -> bytes:
-        """What a UART at the wrong baud makes of the bytes: noise of about the same amount."""
-        return bytes(self._rng.randrange(256) for _ in data)
 
     def _baud_matches(self) -> bool:
         if self._fds is None:
@@ -360,16 +419,25 @@ def _default_motion(rate_hz: float) -> MotionSource:
     return arm_source(rate_hz)
 
 
-def _counts(values: tuple[float, ...], lsb: float) -> tuple[int, ...]:
-    """Quantise and saturate to int16, as the sensor's ADC does."""
-    return tuple(max(-32768, min(32767, round(v / lsb))) for v in values)
+def counts(values: ArrayLike, lsb: float) -> NDArray[np.int64]:
+    """Quantise and saturate to int16, as the sensor's ADC does (ties to even, like ``round``)."""
+    return np.clip(np.rint(np.asarray(values, dtype=float) / lsb), -32768, 32767).astype(np.int64)
+
+
+def acc_lsb(acc_fs_g: int) -> float:
+    """m/s^2 per accelerometer count at a full scale of +-``acc_fs_g`` g."""
+    return acc_fs_g * P.STANDARD_GRAVITY / 32768.0
+
+
+def gyr_lsb(gyr_fs_dps: int) -> float:
+    """rad/s per gyroscope count at a full scale of +-``gyr_fs_dps`` deg/s."""
+    return math.radians(gyr_fs_dps) / 32768.0
 
 
 def quantise(r: SensorReading, t: float, t_us: int, seq: int,
              acc_fs_g: int, gyr_fs_dps: int) -> P.RawSample:
     """The raw sample the firmware would read from the MPU-9250 for ``r``."""
-    acc = _counts(r.acc, acc_fs_g * P.STANDARD_GRAVITY / 32768.0)
-    gyr = _counts(r.gyr, math.radians(gyr_fs_dps) / 32768.0)
-    mag = _counts(r.mag, P.MAG_UT_PER_COUNT) if r.mag is not None else None
+    acc = tuple(counts(r.acc, acc_lsb(acc_fs_g)).tolist())
+    gyr = tuple(counts(r.gyr, gyr_lsb(gyr_fs_dps)).tolist())
+    mag = tuple(counts(r.mag, P.MAG_UT_PER_COUNT).tolist()) if r.mag is not None else None
     return P.RawSample(t, t_us, seq, acc, gyr, mag, r.flex_adc, acc_fs_g, gyr_fs_dps)
-

@@ -44,7 +44,7 @@ import re
 from collections import deque
 from dataclasses import Field, dataclass, field, fields
 from pathlib import Path
-from typing import Sequence
+from typing import NamedTuple, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -54,6 +54,8 @@ from .lowpass import LowPass2
 from .protocol import RawSample
 
 Array = NDArray[np.float64]
+Vec = tuple[float, float, float]
+Rows = tuple[Vec, Vec, Vec]  # a 3 x 3 matrix by rows
 
 DEG = math.pi / 180.0  # rad per degree
 GRAVITY = 9.81  # m/s^2, the world gravity of ARCHITECTURE.md
@@ -177,17 +179,21 @@ class RestDetector:
     def update(self, gyr: Sequence[float], acc: Sequence[float], dt: float) -> bool:
         """Feed one sample (rad/s, m/s^2, seconds since the last); whether the board is at rest."""
         s, p = self._state, self.params
-        g = (float(gyr[0]), float(gyr[1]), float(gyr[2]))
-        a = (float(acc[0]), float(acc[1]), float(acc[2]))
-        if not (all(map(math.isfinite, g)) and all(map(math.isfinite, a)) and math.isfinite(dt) and dt > 0):
+        gx, gy, gz = float(gyr[0]), float(gyr[1]), float(gyr[2])
+        ax, ay, az = float(acc[0]), float(acc[1]), float(acc[2])
+        inf = math.inf  # chained comparisons: false for infinities and NaN alike, and cheap
+        if not (-inf < gx < inf and -inf < gy < inf and -inf < gz < inf and -inf < ax < inf
+                and -inf < ay < inf and -inf < az < inf and 0.0 < dt < inf):
             s.still_for, s.rest = 0.0, False
             return False
         if s.gyr_lp is None or abs(dt - s.dt) > 1e-3 * s.dt:
             s.gyr_lp, s.acc_lp, s.dt = LowPass2.design(p.tau, dt), LowPass2.design(p.tau, dt), dt
-        gl, al = s.gyr_lp(g), s.acc_lp(a)
-        still = ((g[0] - gl[0]) ** 2 + (g[1] - gl[1]) ** 2 + (g[2] - gl[2]) ** 2 < p.gyr_threshold ** 2
-                 and (a[0] - al[0]) ** 2 + (a[1] - al[1]) ** 2 + (a[2] - al[2]) ** 2 < p.acc_threshold ** 2
-                 and max(abs(gl[0]), abs(gl[1]), abs(gl[2])) < p.gyr_max_rate)
+        (lx, ly, lz), (mx, my, mz) = s.gyr_lp((gx, gy, gz)), s.acc_lp((ax, ay, az))
+        ux, uy, uz = gx - lx, gy - ly, gz - lz  # the gyroscope's deviation from its low-pass
+        vx, vy, vz = ax - mx, ay - my, az - mz  # the accelerometer's
+        still = (ux * ux + uy * uy + uz * uz < p.gyr_threshold * p.gyr_threshold
+                 and vx * vx + vy * vy + vz * vz < p.acc_threshold * p.acc_threshold
+                 and max(abs(lx), abs(ly), abs(lz)) < p.gyr_max_rate)
         s.still_for = s.still_for + dt if still else 0.0
         s.rest = s.still_for >= p.min_duration - 1e-9
         return s.rest
@@ -582,13 +588,60 @@ VERSION = 1
 _BOARD_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,79}")
 
 
-@dataclass(frozen=True, eq=False)
-class Corrected:
-    """Calibrated readings, each (..., 3): ``acc`` m/s^2, ``gyr`` rad/s, ``mag`` uT or None."""
+class Corrected(NamedTuple):
+    """Calibrated readings: ``acc`` m/s^2, ``gyr`` rad/s, ``mag`` uT or None.
 
-    acc: Array
-    gyr: Array
-    mag: Array | None
+    Arrays of shape (..., 3) from :meth:`BoardCalibration.apply_arrays`, 3-tuples of
+    floats from :meth:`BoardCalibration.apply` (one sample; a named tuple is the
+    cheapest record to make once per sample).
+    """
+
+    acc: Array | Vec
+    gyr: Array | Vec
+    mag: Array | Vec | None
+
+
+@dataclass(frozen=True)
+class _PlainCalibration:
+    """A :class:`BoardCalibration` as plain floats, for correcting one sample at a time.
+
+    For three numbers numpy's per-call overhead costs far more than the arithmetic.
+    A matrix is None where it is the identity, which then costs nothing.
+    """
+
+    gyro_bias: Vec
+    acc_offset: Vec
+    acc_scale: Vec
+    acc_misalignment: Rows | None
+    mag_hard_iron: Vec
+    mag_soft_iron: Rows | None
+
+    @classmethod
+    def of(cls, cal: BoardCalibration) -> _PlainCalibration:
+        """The plain-float copy of ``cal``'s arrays."""
+        return cls(_floats(cal.gyro_bias), _floats(cal.acc_offset), _floats(cal.acc_scale),
+                   _matrix(cal.acc_misalignment), _floats(cal.mag_hard_iron),
+                   _matrix(cal.mag_soft_iron))
+
+
+def _floats(v: Array) -> Vec:
+    """A 3-vector as a tuple of floats."""
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
+def _matrix(m: Array) -> Rows | None:
+    """The rows of ``m`` as tuples of floats; None for the identity."""
+    if np.array_equal(m, np.eye(3)):
+        return None
+    return (_floats(m[0]), _floats(m[1]), _floats(m[2]))
+
+
+def _transform(m: Rows | None, x: float, y: float, z: float) -> Vec:
+    """``m @ (x, y, z)``, with None standing for the identity."""
+    if m is None:
+        return (x, y, z)
+    (a, b, c), (d, e, f), (g, h, i) = m
+    return (a * x + b * y + c * z, d * x + e * y + f * z, g * x + h * y + i * z)
 
 
 @dataclass(frozen=True, eq=False)
@@ -601,6 +654,7 @@ class BoardCalibration:
         mag_cal = mag_soft_iron @ (mag - mag_hard_iron)          (hard/soft iron)
     in rad/s, m/s^2 and uT. ``board_id`` names the board's file (see :func:`make_board_id`).
     Arrays are validated (shape, finite) on construction; a bad one is a ValueError.
+    They are read-only, so that :meth:`apply`'s copy of them as floats stays true.
     """
 
     board_id: str = "default"
@@ -610,6 +664,7 @@ class BoardCalibration:
     acc_misalignment: Array = field(default_factory=lambda: np.eye(3))
     mag_hard_iron: Array = field(default_factory=lambda: np.zeros(3))
     mag_soft_iron: Array = field(default_factory=lambda: np.eye(3))
+    _plain: _PlainCalibration = field(init=False, repr=False)  # the arrays as floats, for apply
 
     def __post_init__(self) -> None:
         if not isinstance(self.board_id, str) or not _BOARD_ID.fullmatch(self.board_id):
@@ -620,7 +675,9 @@ class BoardCalibration:
             shape = np.shape(f.default_factory())  # type: ignore[misc]
             if value.shape != shape or not np.all(np.isfinite(value)):
                 raise ValueError(f"{f.name} must be {' x '.join(map(str, shape))} finite numbers")
+            value.flags.writeable = False
             object.__setattr__(self, f.name, value)
+        object.__setattr__(self, "_plain", _PlainCalibration.of(self))
 
     def apply_arrays(self, acc: ArrayLike, gyr: ArrayLike,
                      mag: ArrayLike | None = None) -> Corrected:
@@ -632,8 +689,15 @@ class BoardCalibration:
                          np.asarray(gyr, dtype=np.float64) - self.gyro_bias, m)
 
     def apply(self, sample: RawSample) -> Corrected:
-        """Correct one raw sample (its SI readings)."""
-        return self.apply_arrays(sample.acc, sample.gyr, sample.mag)
+        """Correct one raw sample (its SI readings): :meth:`apply_arrays` on plain floats."""
+        c = self._plain
+        (ax, ay, az), (gx, gy, gz), mag = sample.acc, sample.gyr, sample.mag
+        (ox, oy, oz), (sx, sy, sz), (bx, by, bz) = c.acc_offset, c.acc_scale, c.gyro_bias
+        acc = _transform(c.acc_misalignment, (ax - ox) * sx, (ay - oy) * sy, (az - oz) * sz)
+        if mag is not None:
+            (mx, my, mz), (hx, hy, hz) = mag, c.mag_hard_iron
+            mag = _transform(c.mag_soft_iron, mx - hx, my - hy, mz - hz)
+        return Corrected(acc, (gx - bx, gy - by, gz - bz), mag)
 
     def to_json(self) -> dict:
         """JSON-ready fields, with the file format and version."""
@@ -659,8 +723,8 @@ class BoardCalibration:
 
 
 def _array_fields() -> list[Field]:
-    """BoardCalibration's array fields (all but board_id); each default gives its shape."""
-    return [f for f in fields(BoardCalibration) if f.name != "board_id"]
+    """BoardCalibration's array fields (the settings but board_id); each default gives its shape."""
+    return [f for f in fields(BoardCalibration) if f.init and f.name != "board_id"]
 
 
 class CalibrationFileError(Exception):

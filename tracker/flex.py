@@ -43,7 +43,7 @@ import os
 from dataclasses import asdict, dataclass, fields, replace
 from enum import Enum
 from pathlib import Path
-from typing import Sequence
+from typing import NamedTuple, Sequence, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -51,6 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 from .atomic import atomic_write
 
 Array = NDArray[np.float64]
+FloatOrArray = TypeVar("FloatOrArray", float, Array)  # one count, or many
 
 FULL_BEND_DEG = 127.0  # where the paper's 3 counts/degree put 50 kOhm (module docstring)
 CALIBRATION_KIND = "energyball.flex_calibration"
@@ -178,8 +179,18 @@ class FlexCalibration:
 
     def degrees(self, adc: ArrayLike) -> Array:
         """Elbow angle for ``adc`` (0 to ``bent_deg`` at the range's ends and beyond)."""
-        u = np.clip((np.asarray(adc, dtype=float) - self.adc_straight)
-                    / (self.adc_bent - self.adc_straight), 0.0, 1.0)
+        return self._angle(np.clip(self.position(np.asarray(adc, dtype=float)), 0.0, 1.0))
+
+    def degrees_one(self, adc: float) -> float:
+        """:meth:`degrees` of one count, on plain floats (no numpy call per sample)."""
+        return self._angle(min(1.0, max(0.0, self.position(adc))))
+
+    def position(self, adc: FloatOrArray) -> FloatOrArray:
+        """u: where ``adc`` lies on the range, 0 straight, 1 bent (beyond: below 0, above 1)."""
+        return (adc - self.adc_straight) / (self.adc_bent - self.adc_straight)
+
+    def _angle(self, u: FloatOrArray) -> FloatOrArray:
+        """The class doc's map from u in [0, 1] to degrees."""
         return self.bent_deg * (u + self.curve * u * (u - 1.0))
 
     @classmethod
@@ -296,9 +307,8 @@ class FlexParams:
     adc_max: int = FlexCircuit().adc_max
 
 
-@dataclass(frozen=True)
-class FlexReading:
-    """One tracked flex sample."""
+class FlexReading(NamedTuple):
+    """One tracked flex sample (a named tuple: the cheapest record to make per sample)."""
 
     deg: float  # smoothed elbow angle, 0 = straight
     raw_deg: float  # the same sample through the calibration, unsmoothed
@@ -361,7 +371,7 @@ class FlexTracker:
             return FlexReading(s.deg or 0.0, s.raw_deg, FlexStatus.RAIL)
         dt = max(0.0, t - s.t) if s.deg is not None else 0.0
         self._follow_range(adc, dt)
-        raw = float(s.calibration.degrees(adc))
+        raw = s.calibration.degrees_one(adc)
         if s.deg is None:
             s.deg = raw
         else:
@@ -373,11 +383,14 @@ class FlexTracker:
         return FlexReading(s.deg, raw, FlexStatus.STUCK if stuck else FlexStatus.OK)
 
     def _follow_range(self, adc: int, dt: float) -> None:
+        """Pull the range's end that ``adc`` lies beyond towards it (see the class doc)."""
         c = self.state.calibration
-        u = (adc - c.adc_straight) / (c.adc_bent - c.adc_straight)
-        k = 1.0 - math.exp(-dt / self.params.range_tau_s)
+        u = c.position(adc)
         if u < 0:
-            c = replace(c, adc_straight=c.adc_straight + k * (adc - c.adc_straight))
+            end, value = "adc_straight", c.adc_straight
         elif u > 1:
-            c = replace(c, adc_bent=c.adc_bent + k * (adc - c.adc_bent))
-        self.state.calibration = c
+            end, value = "adc_bent", c.adc_bent
+        else:
+            return  # within the range: nothing to follow
+        k = 1.0 - math.exp(-dt / self.params.range_tau_s)
+        self.state.calibration = replace(c, **{end: value + k * (adc - value)})

@@ -11,7 +11,7 @@ floats: a filter updated once per sample costs less than numpy's call overhead.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 Vec = tuple[float, float, float]
 
@@ -25,8 +25,8 @@ class LowPass2:
     b2: float
     a1: float
     a2: float
-    s1: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
-    s2: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    s1: Vec = (0.0, 0.0, 0.0)  # the first state of each axis
+    s2: Vec = (0.0, 0.0, 0.0)  # the second
     primed: bool = False
     y: Vec = (0.0, 0.0, 0.0)  # the last output
 
@@ -39,20 +39,33 @@ class LowPass2:
         b0 = k * k / norm
         return cls(b0, 2 * b0, b0, 2.0 * (k * k - 1.0) / norm, (1.0 - math.sqrt(2.0) * k + k * k) / norm)
 
+    def redesigned(self, tau: float, dt: float) -> "LowPass2":
+        """The filter for a new sample spacing, settled at this one's last output (if it has run).
+
+        A lost sample makes one gap twice as long; restarting from the next
+        raw input there would let a moving arm's acceleration straight through.
+        """
+        new = LowPass2.design(tau, dt)
+        if self.primed:
+            new(self.y)
+        return new
+
     def __call__(self, x: Vec) -> Vec:
+        """Filter one sample; returns (and keeps as ``y``) the output."""
+        x0, x1, x2 = x
         if not self.primed:  # steady state at the first input: no start-up transient
             self.primed = True
-            for i in range(3):
-                self.s1[i] = x[i] * (1.0 - self.b0)
-                self.s2[i] = x[i] * (self.b2 - self.a2)
-            self.y = (x[0], x[1], x[2])
+            c1, c2 = 1.0 - self.b0, self.b2 - self.a2
+            self.s1 = (x0 * c1, x1 * c1, x2 * c1)
+            self.s2 = (x0 * c2, x1 * c2, x2 * c2)
+            self.y = (x0, x1, x2)
             return self.y
-        b0, b1, b2, a1, a2, s1, s2 = self.b0, self.b1, self.b2, self.a1, self.a2, self.s1, self.s2
-        out = [0.0, 0.0, 0.0]
-        for i in range(3):
-            y = b0 * x[i] + s1[i]
-            s1[i] = b1 * x[i] - a1 * y + s2[i]
-            s2[i] = b2 * x[i] - a2 * y
-            out[i] = y
-        self.y = (out[0], out[1], out[2])
+        # Direct form II transposed, the three axes written out (this runs several
+        # times per sample): y = b0 x + s1;  s1 <- b1 x - a1 y + s2;  s2 <- b2 x - a2 y.
+        b0, b1, b2, a1, a2 = self.b0, self.b1, self.b2, self.a1, self.a2
+        (p0, p1, p2), (q0, q1, q2) = self.s1, self.s2
+        y0, y1, y2 = b0 * x0 + p0, b0 * x1 + p1, b0 * x2 + p2
+        self.s1 = (b1 * x0 - a1 * y0 + q0, b1 * x1 - a1 * y1 + q1, b1 * x2 - a1 * y2 + q2)
+        self.s2 = (b2 * x0 - a2 * y0, b2 * x1 - a2 * y1, b2 * x2 - a2 * y2)
+        self.y = (y0, y1, y2)
         return self.y

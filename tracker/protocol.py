@@ -19,6 +19,7 @@ stream so a board running a paper-style sketch still works.
 from __future__ import annotations
 
 import binascii
+import functools
 import math
 import re
 import struct
@@ -124,6 +125,26 @@ def link_utilisation(rate_hz: float, frame_size: int = RAW_FRAME_SIZE,
 
 # ----------------------------------------------------------------- packets
 
+# The unit conversions run for every sample, so the scale factors are computed once
+# per full scale and the three products written out.
+
+@functools.cache
+def _acc_scale(fs_g: int) -> float:
+    """m/s^2 per count of a signed 16-bit accelerometer reading at full scale ``fs_g``."""
+    return fs_g * STANDARD_GRAVITY / 32768.0
+
+
+@functools.cache
+def _gyr_scale(fs_dps: int) -> float:
+    """rad/s per count of a signed 16-bit gyroscope reading at full scale ``fs_dps``."""
+    return math.radians(fs_dps) / 32768.0
+
+
+def _scaled(counts: tuple[int, int, int], k: float) -> tuple[float, float, float]:
+    """Three counts times the unit ``k``."""
+    x, y, z = counts
+    return (x * k, y * k, z * k)
+
 
 @dataclass(frozen=True, slots=True)
 class RawSample:
@@ -149,21 +170,19 @@ class RawSample:
     @property
     def acc(self) -> tuple[float, float, float]:
         """Specific force in m/s^2 (+9.81 on the up axis at rest)."""
-        k = self.acc_fs_g * STANDARD_GRAVITY / 32768.0
-        return tuple(c * k for c in self.acc_counts)  # type: ignore[return-value]
+        return _scaled(self.acc_counts, _acc_scale(self.acc_fs_g))
 
     @property
     def gyr(self) -> tuple[float, float, float]:
         """Angular rate in rad/s."""
-        k = math.radians(self.gyr_fs_dps) / 32768.0
-        return tuple(c * k for c in self.gyr_counts)  # type: ignore[return-value]
+        return _scaled(self.gyr_counts, _gyr_scale(self.gyr_fs_dps))
 
     @property
     def mag(self) -> tuple[float, float, float] | None:
         """Magnetic field in microtesla, or None when the board has no magnetometer reading."""
         if self.mag_counts is None:
             return None
-        return tuple(c * MAG_UT_PER_COUNT for c in self.mag_counts)  # type: ignore[return-value]
+        return _scaled(self.mag_counts, MAG_UT_PER_COUNT)
 
 
 @dataclass(frozen=True, slots=True)

@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 Array = NDArray[np.float64]
 
 _EYE = np.eye(3)
+_CONJUGATE = np.array([1.0, -1.0, -1.0, -1.0])
 _GIMBAL_EPS = 1e-7  # |cos(middle angle)| below which an Euler triple is in gimbal lock
 
 
@@ -29,10 +30,26 @@ def _f(x: ArrayLike) -> Array:
 
 def _quat(w: ArrayLike, v: ArrayLike) -> Array:
     """Quaternion from scalar part w (...) and vector part v (..., 3), broadcast."""
-    w, v = _f(w), _f(v)
-    lead = np.broadcast_shapes(w.shape, v.shape[:-1])
-    parts = np.broadcast_to(w[..., None], lead + (1,)), np.broadcast_to(v, lead + (3,))
-    return np.concatenate(parts, axis=-1)
+    return _join(w, *_parts(_f(v)))
+
+
+def _parts(x: Array) -> tuple[Array, ...]:
+    """The components of x (..., n) along its last axis."""
+    return tuple(x[..., i] for i in range(x.shape[-1]))
+
+
+def _join(*parts: ArrayLike) -> Array:
+    """The array (..., n) whose last axis holds the n ``parts``, broadcast."""
+    out = np.empty(np.broadcast(*parts).shape + (len(parts),))
+    for i, part in enumerate(parts):
+        out[..., i] = part
+    return out
+
+
+def _cross(a: tuple[Array, ...], b: tuple[Array, ...]) -> tuple[Array, Array, Array]:
+    """The components of a x b, from the components of a and b."""
+    (ax, ay, az), (bx, by, bz) = a, b
+    return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
 
 
 def _unit(x: ArrayLike, what: str) -> Array:
@@ -50,17 +67,16 @@ def identity(shape: tuple[int, ...] = ()) -> Array:
 
 def multiply(p: ArrayLike, q: ArrayLike) -> Array:
     """Hamilton product p * q (Sola 2017, sec. 1.2.2): rotating by q, then by p."""
-    p, q = _f(p), _f(q)
-    pw, pv, qw, qv = p[..., 0], p[..., 1:], q[..., 0], q[..., 1:]
-    return _quat(
-        pw * qw - np.sum(pv * qv, axis=-1),
-        pw[..., None] * qv + qw[..., None] * pv + np.cross(pv, qv),
-    )
+    (pw, *pv), (qw, *qv) = _parts(_f(p)), _parts(_f(q))
+    (px, py, pz), (qx, qy, qz) = pv, qv
+    cx, cy, cz = _cross(pv, qv)
+    return _join(pw * qw - (px * qx + py * qy + pz * qz),
+                 pw * qx + qw * px + cx, pw * qy + qw * py + cy, pw * qz + qw * pz + cz)
 
 
 def conjugate(q: ArrayLike) -> Array:
     """Conjugate (w, -x, -y, -z): the inverse of a unit quaternion."""
-    return _f(q) * np.array([1.0, -1.0, -1.0, -1.0])
+    return _f(q) * _CONJUGATE
 
 
 def normalize(q: ArrayLike) -> Array:
@@ -78,10 +94,9 @@ def canonical(q: ArrayLike) -> Array:
 
 def rotate(q: ArrayLike, v: ArrayLike) -> Array:
     """Rotate v by unit q: q * (0, v) * conj(q), as v + w t + u x t with t = 2 u x v."""
-    q, v = _f(q), _f(v)
-    w, u = q[..., :1], q[..., 1:]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
+    (w, *u), v = _parts(_f(q)), _parts(_f(v))
+    t = tuple(2.0 * c for c in _cross(u, v))
+    return _join(*(vi + w * ti + ci for vi, ti, ci in zip(v, t, _cross(u, t))))
 
 
 def exp(v: ArrayLike) -> Array:

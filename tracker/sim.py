@@ -22,8 +22,10 @@ A sensor sits at ``position_m`` in its link's frame, turned by ``mount``
 Trajectories are plain functions of time, so their derivatives are taken
 numerically by fourth-order central differences with a step of 0.5 ms:
 truncation O(h^4) (below 1e-8 m/s^2 and rad/s for arm motions up to a few
-hertz), rounding near 1e-9 (about 1e-6 after 1000 s, where t itself loses
-digits). Trajectories should be smooth: at a jump of the third derivative the
+hertz), rounding near 1e-8 m/s^2 and 1e-11 rad/s (the acceleration's stencil
+multiplies a position's last digit by 2e7; about 1e-6 after 1000 s, where t
+itself loses digits). The stencil is summed term by term, so every sample is
+rounded alike wherever it sits in a batch. Trajectories should be smooth: at a jump of the third derivative the
 samples within 1 ms err by O(h x jump).
 
 Sensor errors (seed 003, sec. 3: white noise, zero offset, both; MPU-9250
@@ -31,14 +33,16 @@ data-sheet figures) are white noise, a constant offset, a random-walk drift,
 a scale error, quantisation and saturation (:class:`ErrorModel`). Random
 numbers come from ``numpy.random.SeedSequence(seed, spawn_key=...)`` keyed by
 sensor kind and block of sample indices, so an error is a function of the
-sample index alone: a batch and a stream (:class:`SimulatedSource`, which the
-virtual board reads) give the same values for the same seed.
+sample index alone: a batch and a stream (:meth:`Simulator.stream`, which
+:class:`SimulatedSource` and so the virtual board read) give the same values
+for the same seed.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Callable
 
 import numpy as np
@@ -96,6 +100,20 @@ class Chain:
     sensors: tuple[SensorSpec, ...]
     flex_link: int | None = None  # the link whose hinge the flex sensor spans (None: none)
 
+    @cached_property
+    def hinges(self) -> Array:
+        """The hinge axes of the links after the root, (L - 1, 3)."""
+        return np.reshape([link.hinge for link in self.links[1:]], (-1, 3))
+
+    @cached_property
+    def arms(self) -> tuple[list[int], Array]:
+        """Where each joint after the root, then each sensor, sits on the link it hangs from:
+        that link's index and the vector from its joint in its frame, (L - 1 + S, 3)."""
+        reaches = [link.length_m * np.asarray(link.direction) for link in self.links[:-1]]
+        positions = [np.asarray(s.position_m, dtype=float) for s in self.sensors]
+        index = list(range(len(self.links) - 1)) + [s.link for s in self.sensors]
+        return index, np.reshape(reaches + positions, (-1, 3))
+
 
 @dataclass(frozen=True)
 class Motion:
@@ -103,6 +121,11 @@ class Motion:
 
     root: Callable[[Array], Array]  # t -> q_W0 (N, 4), the root link's orientation
     joints: Callable[[Array], Array]  # t -> hinge angles (N, links - 1), radians
+    pose: Callable[[Array], tuple[Array, Array]] | None = None  # t -> both, if cheaper at once
+
+    def at(self, t: Array) -> tuple[Array, Array]:
+        """The root's orientations and the hinge angles at ``t``."""
+        return self.pose(t) if self.pose is not None else (self.root(t), self.joints(t))
 
 
 @dataclass(frozen=True)
@@ -183,6 +206,15 @@ class SimData:
     scale: dict[str, Array]  # the scale factors 1 + error drawn, by kind
 
 
+def _stencil_sum(weights: Array, x: Array) -> Array:
+    """sum_i weights_i x[i], term by term: every sample is rounded alike (a BLAS product's
+    rounding depends on where in the array a sample is, so a block and a batch would differ)."""
+    total = weights[0] * x[0]
+    for w, xi in zip(weights[1:], x[1:]):
+        total = total + w * xi
+    return total
+
+
 def _rng(seed: int, *key: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=key))
 
@@ -247,64 +279,81 @@ class Simulator:
     def _forward(self, t: Array) -> tuple[Array, Array, Array, Array]:
         """Link orientations, joint angles, sensor orientations and positions at ``t`` (M,)."""
         links, sensors = self.chain.links, self.chain.sensors
-        angles = np.asarray(self.motion.joints(t), dtype=float).reshape(len(t), -1)
-        if angles.shape[1] != len(links) - 1:
+        root, joints = self.motion.at(t)
+        hinges = len(links) - 1
+        angles = np.asarray(joints, dtype=float).reshape(len(t), -1 if len(t) else hinges)
+        if angles.shape[1] != hinges:
             raise ValueError(f"the motion gives {angles.shape[1]} joint angles; "
-                             f"the chain has {len(links) - 1} hinges")
-        q = [quat.normalize(self.motion.root(t))]
-        origin = [np.zeros((len(t), 3))]
-        for k, link in enumerate(links[1:], start=1):
-            parent = links[k - 1]
-            reach = parent.length_m * np.asarray(parent.direction)
-            origin.append(origin[-1] + quat.rotate(q[-1], reach))
-            q.append(quat.multiply(q[-1], quat.from_axis_angle(link.hinge, angles[:, k - 1])))
-        q_links, origins = np.stack(q, axis=1), np.stack(origin, axis=1)
-        idx = [s.link for s in sensors]
+                             f"the chain has {hinges} hinges")
+        turns = quat.from_axis_angle(self.chain.hinges, angles)
+        q_links = np.empty((len(t), len(links), 4))
+        q_links[:, 0] = quat.normalize(root)
+        for k in range(1, len(links)):
+            q_links[:, k] = quat.multiply(q_links[:, k - 1], turns[:, k - 1])
+        index, vectors = self.chain.arms
+        arms = quat.rotate(q_links[:, index], vectors)
+        origins = np.zeros((len(t), len(links), 3))
+        np.cumsum(arms[:, :len(links) - 1], axis=1, out=origins[:, 1:])
+        idx = index[len(links) - 1:]
         q_sensors = quat.multiply(q_links[:, idx], [s.mount for s in sensors])
-        p_sensors = origins[:, idx] + quat.rotate(q_links[:, idx], [s.position_m for s in sensors])
-        return q_links, angles, q_sensors, p_sensors
+        return q_links, angles, q_sensors, origins[:, idx] + arms[:, len(links) - 1:]
 
     def truth(self, t: ArrayLike) -> Truth:
         """The true orientations, rates, specific forces and fields at times ``t`` (s)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
-        shifted = (_STENCIL[:, None] + t[None, :]).ravel()
-        q_links, angles, q_s, p_s = (a.reshape(5, len(t), *a.shape[1:])
-                                     for a in self._forward(shifted))
+        n, m = len(t), len(t) * len(self.chain.sensors)  # samples; samples times sensors
+        q_links, angles, q_s, p_s = self._forward((_STENCIL[:, None] + t).ravel())
+        q_s = q_s.reshape(5, m, 4)  # stencil point; sample and sensor; component
         q = q_s[2]
         q_s = q_s * np.sign(np.sum(q_s * q, axis=-1, keepdims=True))  # one sign along the stencil
-        q_dot = np.tensordot(_D1, q_s, axes=1)
         inv = quat.conjugate(q)
-        gyr = 2.0 * quat.multiply(inv, q_dot)[..., 1:]
-        acc = quat.rotate(inv, np.tensordot(_D2, p_s, axes=1) + np.array([0.0, 0.0, GRAVITY]))
-        mag = quat.rotate(inv, self.earth_field_ut)
+        gyr = 2.0 * quat.multiply(inv, _stencil_sum(_D1, q_s))[:, 1:]
+        world = _stencil_sum(_D2, p_s.reshape(5, m, 3)) + np.array([0.0, 0.0, GRAVITY])
+        acc, mag = quat.rotate(inv, np.array([world, np.broadcast_to(self.earth_field_ut, world.shape)]))
+        centre, shape = slice(2 * n, 3 * n), (n, len(self.chain.sensors))
         fl = self.chain.flex_link
-        flex = np.degrees(angles[2][:, fl - 1]) if fl is not None else np.zeros(len(t))
-        return Truth(t, q_links[2], angles[2], q, gyr, acc, mag, flex)
+        flex = np.degrees(angles[centre, fl - 1]) if fl is not None else np.zeros(n)
+        return Truth(t, q_links[centre], angles[centre], q.reshape(*shape, 4), gyr.reshape(*shape, 3),
+                     acc.reshape(*shape, 3), mag.reshape(*shape, 3), flex)
 
-    def _error_processes(self, rate_hz: float) -> dict[str, _ErrorProcess]:
-        """Fresh error processes for sampling at ``rate_hz``, by kind."""
-        n = len(self.chain.sensors)
-        shapes = {"gyr": (n, 3), "acc": (n, 3), "mag": (n, 3), "flex": ()}
-        return {kind: _ErrorProcess(getattr(self.errors, kind), shapes[kind], rate_hz, self.seed, i)
-                for i, kind in enumerate(_KINDS)}
-
-    def _measure(self, truth: Truth, k: NDArray[np.int64], processes: dict[str, _ErrorProcess]
-                 ) -> tuple[Array, Array, Array, NDArray[np.int64]]:
-        """Gyroscope, accelerometer, magnetometer and flex ADC for ``truth`` as samples ``k``."""
-        p, c = processes, self.flex_circuit
-        volts = c.volts(self.flex_sensor.ohms(truth.flex_deg))
-        return (p["gyr"].measure(truth.gyr, k), p["acc"].measure(truth.acc, k),
-                p["mag"].measure(truth.mag, k), c.adc(p["flex"].measure(volts, k)))
+    def stream(self, rate_hz: float) -> SampleStream:
+        """The samples at t = k / ``rate_hz``, measured a block at a time on request."""
+        return SampleStream(self, rate_hz)
 
     def simulate(self, duration_s: float, rate_hz: float) -> SimData:
         """``round(duration * rate)`` samples at t = k / rate, measured and true."""
-        k = np.arange(round(duration_s * rate_hz))
-        truth = self.truth(k / rate_hz)
-        processes = self._error_processes(rate_hz)
-        gyr, acc, mag, adc = self._measure(truth, k, processes)
-        return SimData(truth.t, gyr, acc, mag, adc, truth,
-                       {kind: p.offset for kind, p in processes.items()},
-                       {kind: p.scale for kind, p in processes.items()})
+        return self.stream(rate_hz).block(0, round(duration_s * rate_hz))
+
+
+class SampleStream:
+    """A simulator sampled at ``rate_hz``: sample k is at t = k / rate.
+
+    Its errors are functions of the sample index (:class:`_ErrorProcess`) and
+    every sample is computed alike, so ``block(k0, k1)`` is rows k0 to k1 - 1
+    of ``sim.simulate(..., rate_hz)``, whatever the blocks asked for before.
+    Nothing is computed ahead: the motion may be extended between calls for
+    times after those of the blocks already taken.
+    """
+
+    def __init__(self, sim: Simulator, rate_hz: float) -> None:
+        self.sim, self.rate_hz = sim, rate_hz
+        n = len(sim.chain.sensors)
+        shapes = {"gyr": (n, 3), "acc": (n, 3), "mag": (n, 3), "flex": ()}
+        self._processes = {kind: _ErrorProcess(getattr(sim.errors, kind), shapes[kind], rate_hz,
+                                               sim.seed, i) for i, kind in enumerate(_KINDS)}
+
+    def block(self, k0: int, k1: int) -> SimData:
+        """Samples number ``k0`` to ``k1 - 1``, measured and true."""
+        if not 0 <= k0 <= k1:
+            raise ValueError(f"a block of samples needs 0 <= k0 <= k1, not {k0} and {k1}")
+        k = np.arange(k0, k1)
+        truth = self.sim.truth(k / self.rate_hz)
+        p, circuit = self._processes, self.sim.flex_circuit
+        volts = circuit.volts(self.sim.flex_sensor.ohms(truth.flex_deg))
+        return SimData(truth.t, p["gyr"].measure(truth.gyr, k), p["acc"].measure(truth.acc, k),
+                       p["mag"].measure(truth.mag, k), circuit.adc(p["flex"].measure(volts, k)),
+                       truth, {kind: q.offset for kind, q in p.items()},
+                       {kind: q.scale for kind, q in p.items()})
 
 
 @dataclass
@@ -322,11 +371,11 @@ class SimulatedSource:
     rate_hz: float = 200.0
     sensor: int = 0  # which of the chain's sensors the board carries
     block: int = 256  # samples computed together
-    _processes: dict[str, _ErrorProcess] = field(init=False, repr=False)
+    _stream: SampleStream = field(init=False, repr=False)
     _cache: dict[int, list[SensorReading]] = field(init=False, repr=False, default_factory=dict)
 
     def __post_init__(self) -> None:
-        self._processes = self.sim._error_processes(self.rate_hz)
+        self._stream = self.sim.stream(self.rate_hz)
 
     def reading(self, t: float) -> SensorReading:
         b, i = divmod(round(t * self.rate_hz), self.block)
@@ -335,14 +384,11 @@ class SimulatedSource:
         return self._cache[b][i]
 
     def _readings(self, b: int) -> list[SensorReading]:
-        k = np.arange(b * self.block, (b + 1) * self.block)
-        truth = self.sim.truth(k / self.rate_hz)
-        gyr, acc, mag, adc = self.sim._measure(truth, k, self._processes)
-        s = self.sensor
-        return [SensorReading(acc=tuple(acc[n, s].tolist()), gyr=tuple(gyr[n, s].tolist()),
-                              mag=tuple(mag[n, s].tolist()), flex_deg=float(truth.flex_deg[n]),
-                              flex_adc=int(adc[n]), q=tuple(truth.q_sensors[n, s].tolist()))
-                for n in range(len(k))]
+        data, s = self._stream.block(b * self.block, (b + 1) * self.block), self.sensor
+        return [SensorReading(acc=tuple(data.acc[n, s].tolist()), gyr=tuple(data.gyr[n, s].tolist()),
+                              mag=tuple(data.mag[n, s].tolist()), flex_deg=float(data.truth.flex_deg[n]),
+                              flex_adc=int(data.flex_adc[n]), q=tuple(data.truth.q_sensors[n, s].tolist()))
+                for n in range(len(data.t))]
 
 
 # ------------------------------------------------------------------ presets

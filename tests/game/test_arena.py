@@ -150,9 +150,14 @@ def test_tough_zombie_is_knocked_back_then_killed():
     assert kinds(events).count("hit") == 1 and zombie.state is ZombieState.WALKING and zombie.health == 1
     assert zombie.y == pytest.approx(6.0 + NO_WAVES.knockback_m, abs=0.1)
     assert arena.score == 100
+    assert (arena.shots, arena.hits, arena.kills) == (1, 1, 0)
     arena.launch((0.0, 0.0, 1.0), (0.0, 1.0, 0.0), 0.0)
     run(arena, 1.0)
     assert zombie.state is ZombieState.FLYING and arena.score == 200
+    assert (arena.shots, arena.hits, arena.kills) == (2, 2, 1)
+    arena.launch((0.0, 0.0, 1.0), (0.0, -1.0, 0.0), 0.0)  # away from everything: a miss
+    run(arena, 3.0)
+    assert (arena.shots, arena.hits, arena.kills) == (3, 2, 1)
 
 
 def test_launch_normalises_and_ignores_bad_directions():

@@ -8,6 +8,7 @@ from scipy.spatial.transform import Rotation
 
 from game.avatar import Avatar, BodySettings, Wearing, hinge, skeleton
 from game.pose import ArmPose
+from tracker import quat as Q
 
 IDENTITY = (1.0, 0.0, 0.0, 0.0)
 
@@ -103,3 +104,19 @@ def test_bad_body_settings_are_clear_errors():
 
 def test_hinge_is_a_rotation_about_x():
     assert hinge(90.0, "aligned") == pytest.approx(wxyz(Rotation.from_euler("x", 90, degrees=True)))
+
+
+def test_a_walking_body_moves_every_bone_and_a_standing_one_keeps_the_arm_live():
+    # Posing only the arm while the body stands must give what a fresh avatar computes in full.
+    raised = ArmPose(tuple(Q.from_axis_angle((1, 0, 0), math.radians(80.0))), 40.0, 0.0)
+    walker = Avatar()
+    walker.update(ArmPose((1.0, 0.0, 0.0, 0.0), 0.0, 0.0))
+    walker.position, walker.body_yaw = (1.0, 2.0), 0.3
+    walker.update(raised)
+    walker.update(ArmPose(raised.q_upper, 90.0, 0.1))  # the body stands still: only the arm is posed
+    fresh = Avatar(position=(1.0, 2.0), body_yaw=0.3)
+    fresh.update(ArmPose(raised.q_upper, 90.0, 0.1))
+    for name in fresh.world_pos:
+        assert walker.world_pos[name] == pytest.approx(fresh.world_pos[name], abs=1e-12), name
+        assert walker.world_rot[name] == pytest.approx(fresh.world_rot[name], abs=1e-12), name
+    assert walker.world_pos["hips"][:2] == pytest.approx((1.0, 2.0))

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from game.gesture_eval import TrialResult, _score, board_stream, run_trial, summarise
+from game.gesture_eval import TrialResult, board_stream, score_launches, run_trial, summarise
 from game.gestures import GestureEvent
 from game.motion_model import PlayerProfile, Segment, Session, TrueLaunch, session
 
@@ -30,7 +30,9 @@ def test_matching_worked_by_hand():
     events = [launch(10.25, (s, c, 0.0)),   # 50 ms after the crossing, 3 deg off: a hit
               launch(12.0, (0.0, 1.0, 0.0)),  # long after any launch, not idle: false
               launch(40.0, (0.0, 1.0, 0.0))]  # in the idle stretch: false, and idle
-    _score(fake_session(), events, result)
+    truth = fake_session()
+    unmatched = score_launches(truth.launches, truth.idle_intervals, events, result)
+    assert unmatched == [truth.launches[1]]
     assert (result.matched, result.false_launches, result.idle_false_launches) == (1, 2, 1)
     assert result.latencies_ms == pytest.approx([50.0])
     assert result.aim_errors_deg == pytest.approx([3.0])

@@ -12,7 +12,7 @@ from game.motion_model import (
     session)
 from game.pose import ArmPose
 from tracker import quat as Q
-from tracker.sim import Simulator, arm_chain, mpu9250
+from tracker.sim import Motion, Simulator, arm_chain, mpu9250
 
 STILL = PlayerProfile(tremor_deg=0.0)
 
@@ -275,3 +275,38 @@ def test_a_built_session_does_not_change_when_the_script_goes_on():
     script.gesture()
     assert np.array_equal(before.motion.root(t), q) and before.launches == []
     assert script.build().launches
+
+
+def test_a_stream_of_a_script_that_goes_on_keeps_the_samples_already_taken():
+    profile = PlayerProfile()
+    script = Script(profile, seed=2)
+    script.idle(3.0)
+    live = Motion(script.root, script.joints, script.pose)
+    t = np.linspace(0.0, 3.0, 101)
+    root, joints = live.at(t)
+    assert np.array_equal(root, script.root(t)) and np.array_equal(joints, script.joints(t))
+    stream = Simulator(profile.chain(), live, profile.sensor_errors(), profile.flex_sensor(), seed=2) \
+        .stream(200.0)
+    first = stream.block(0, 500)  # up to 2.5 s, before the script's end
+    script.gesture()
+    whole = Simulator(profile.chain(), script.build().motion, profile.sensor_errors(), profile.flex_sensor(),
+                      seed=2).simulate(script.now, 200.0)
+    for name in ("gyr", "acc", "mag", "flex_adc"):
+        assert np.array_equal(getattr(first, name), getattr(whole, name)[:500])
+    assert np.array_equal(stream.block(500, 900).acc, whole.acc[500:900])  # the gesture, as scripted later
+
+
+def test_forgetting_the_past_leaves_the_motion_from_then_on_unchanged():
+    script = Script(PlayerProfile(), seed=4)
+    for _ in range(3):
+        script.idle(5.0)
+        script.gesture()
+    t = np.linspace(12.0, script.now + 1.0, 777)
+    before = script.pose(t)
+    waves = len(script._waves)
+    script.forget_before(12.0)
+    after = script.pose(t)
+    np.testing.assert_array_equal(before[0], after[0])
+    np.testing.assert_array_equal(before[1], after[1])
+    assert len(script._waves) < waves
+    script.gesture()  # and it can go on

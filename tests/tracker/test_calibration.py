@@ -6,6 +6,8 @@ White noise of density D over the Nyquist band fs/2 has std D * sqrt(fs / 2): 0.
 (the data sheet's own total RMS figure) and 2.9e-2 m/s^2 per axis.
 """
 
+import copy
+import dataclasses
 import json
 import math
 
@@ -303,18 +305,32 @@ def test_defaults_correct_nothing_and_apply_undoes_the_sensor_model():
     assert out.mag == pytest.approx(np.diag([1.1, 0.9, 1.0]) @ (mag - [10.0, -5.0, 3.0]))
 
 
-def test_apply_works_on_one_sample_and_on_arrays_alike():
-    cal = calibrated()
+@pytest.mark.parametrize("cal", [calibrated(), C.BoardCalibration(acc_offset=[0.1, -0.2, 0.3])],
+                         ids=["full", "identity-matrices"])
+def test_apply_works_on_one_sample_and_on_arrays_alike(cal):
     samples = [P.RawSample(0.0, 0, i, (i, -200, 2048), (10, -5, i), (100, 200, -300), 400)
                for i in range(4)]
     batch = C.SampleArrays.from_samples(samples)
     many = cal.apply_arrays(batch.acc, batch.gyr, batch.mag)
     for i, s in enumerate(samples):
         one = cal.apply(s)
-        assert one.acc == pytest.approx(many.acc[i]) and one.gyr == pytest.approx(many.gyr[i])
-        assert one.mag == pytest.approx(many.mag[i])
+        for got, want in zip(one, (many.acc[i], many.gyr[i], many.mag[i])):
+            assert type(got) is tuple and all(type(x) is float for x in got)  # plain floats
+            assert got == pytest.approx(want, abs=1e-12)
     no_mag = P.RawSample(0.0, 0, 0, (0, 0, 2048), (0, 0, 0), None, 400)
     assert cal.apply(no_mag).mag is None
+
+
+def test_apply_follows_a_replaced_or_reloaded_calibration():
+    sample = P.RawSample(0.0, 0, 0, (100, -200, 2048), (10, -5, 3), (100, 200, -300), 400)
+    cal = calibrated()
+    for other in (dataclasses.replace(cal, gyro_bias=[0.0, 0.0, 0.0]),
+                  C.BoardCalibration.from_json(cal.to_json()), copy.deepcopy(cal)):
+        want = other.apply_arrays(sample.acc, sample.gyr, sample.mag)
+        for got, expected in zip(other.apply(sample), want):
+            assert got == pytest.approx(expected, abs=1e-12)
+    with pytest.raises(ValueError, match="read-only"):  # so apply's copy cannot go stale
+        cal.gyro_bias[0] = 1.0
 
 
 def test_bad_values_are_refused():

@@ -56,6 +56,14 @@ def test_the_default_model_agrees_with_the_paper_map_within_half_a_degree():
     assert model.degrees(adc) == pytest.approx(degrees_from_adc(adc), abs=1e-9)
 
 
+@pytest.mark.parametrize("cal", [FlexCalibration.from_model(), FlexCalibration(100.0, 900.0, 120.0, 0.4)])
+def test_one_count_gives_what_the_array_map_gives(cal):
+    adc = np.arange(-5, 1030)  # beyond both ends of the range too
+    one = [cal.degrees_one(int(a)) for a in adc]
+    assert all(type(d) is float for d in one)
+    assert one == cal.degrees(adc).tolist()
+
+
 def test_two_poses_recover_a_linear_response():
     rng = np.random.default_rng(1)
     true_adc = lambda deg: 405.0 - 2.4 * deg  # a person whose sensor is stiffer than the paper's

@@ -238,6 +238,29 @@ def test_the_streaming_source_gives_the_batch_samples():
         assert r.q == tuple(data.truth.q_sensors[k, 0])
 
 
+def test_blocks_of_a_stream_are_the_rows_of_the_batch():
+    errors = SensorErrors(gyr=ErrorModel(noise_density=GYR_NOISE_DENSITY, offset_max=GYR_OFFSET_MAX,
+                                         drift=1e-3, resolution=1e-4),
+                          acc=ErrorModel(noise_density=ACC_NOISE_DENSITY, scale_max=0.03),
+                          flex=ErrorModel(noise_density=1e-3, drift=1e-3))
+    sim = Simulator(arm_chain(), arm_swing(), errors, seed=11)
+    data = sim.simulate(25.0, 200.0)  # 5000 samples: more than one block of random numbers
+    stream, edges = sim.stream(200.0), np.cumsum([0, 1, 7, 50, 333, 4096, 2, 511])
+    blocks = [stream.block(int(k0), int(k1)) for k0, k1 in zip(edges[:-1], edges[1:])]
+    for name in ("t", "gyr", "acc", "mag", "flex_adc"):
+        assert np.array_equal(np.concatenate([getattr(b, name) for b in blocks]), getattr(data, name))
+    for name in ("q_links", "joints", "q_sensors", "gyr", "acc", "mag", "flex_deg"):
+        assert np.array_equal(np.concatenate([getattr(b.truth, name) for b in blocks]),
+                              getattr(data.truth, name))
+    later = stream.block(4000, 4100)  # again, out of order: the same samples
+    assert np.array_equal(later.acc, data.acc[4000:4100]) and np.array_equal(later.gyr, data.gyr[4000:4100])
+    assert all(np.array_equal(blocks[0].offset[k], data.offset[k]) for k in data.offset)
+    assert all(np.array_equal(blocks[0].scale[k], data.scale[k]) for k in data.scale)
+    assert len(stream.block(7, 7).t) == 0
+    with pytest.raises(ValueError, match="0 <= k0 <= k1"):
+        stream.block(5, 4)
+
+
 def test_the_virtual_board_streams_simulated_motion_over_the_link():
     sim = Simulator(arm_chain(), arm_swing(), mpu9250(), seed=8)
     source = SimulatedSource(sim, rate_hz=200.0)

@@ -82,7 +82,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
     def _design(self, dt: float) -> None:
         s, p = self._state, self.params
         s.dt = dt
-        s.acc_lp = LowPass2.design(p.tau_acc, dt)
+        s.acc_lp = LowPass2.design(p.tau_acc, dt) if s.acc_lp is None else s.acc_lp.redesigned(p.tau_acc, dt)
         if s.rest is None:
             # Fed the raw rate, so the low-passed rate may be as large as the bias can be.
             s.rest = RestDetector(RestParams(p.rest_gyr_th, p.rest_acc_th, 2 * p.bias_max,
@@ -98,10 +98,12 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         # 1. Strapdown integration of the bias-corrected rate (VQF sec. 3.1).
         b = s.bias
         s.q_gyr = normalize(integrate(s.q_gyr, (gyr[0] - b[0], gyr[1] - b[1], gyr[2] - b[2]), dt))
-        # 2. Inclination from the accelerometer low-passed in frame I (VQF sec. 3.2).
-        if acc is not None:
-            self._correct_inclination(acc, dt)
+        # 2. Inclination from the accelerometer low-passed in frame I (VQF sec. 3.2),
+        #    and the bias from the correction while in motion (Mahony eq. 32).
+        tilt = self._correct_inclination(acc) if acc is not None else None
         q6 = mul(s.q_inc, s.q_gyr)
+        if tilt is not None and not self.flags.rest and s.t > p.startup_t:
+            self._learn_bias_in_motion(q6, tilt[0] / dt, tilt[1] / dt, dt)
         # 3. Heading from the magnetometer, with disturbance rejection (VQF sec. 3.4).
         if mag is not None:
             self._correct_heading(q6, mag, dt)
@@ -118,41 +120,46 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         if rest:
             # At rest the low-passed gyro is the bias (VQF sec. 3.3): follow it quickly.
             k = min(1.0, dt / p.bias_tau_rest)
-            s.bias = self._clamp(tuple(bi + k * (gi - bi) for bi, gi in zip(s.bias, s.rest.gyr_lp)))
+            (bx, by, bz), (gx, gy, gz) = s.bias, s.rest.gyr_lp
+            s.bias = self._clamp(bx + k * (gx - bx), by + k * (gy - by), bz + k * (gz - bz))
 
-    def _clamp(self, b: tuple[float, ...]) -> Vec:
+    def _clamp(self, x: float, y: float, z: float) -> Vec:
+        """The bias (x, y, z) limited to +-bias_max per axis."""
         m = self.params.bias_max
-        return (max(-m, min(m, b[0])), max(-m, min(m, b[1])), max(-m, min(m, b[2])))
+        return (max(-m, min(m, x)), max(-m, min(m, y)), max(-m, min(m, z)))
 
     # ------------------------------------------------------------ inclination
 
-    def _correct_inclination(self, acc: Vec, dt: float) -> None:
-        s, p = self._state, self.params
+    def _correct_inclination(self, acc: Vec) -> tuple[float, float] | None:
+        """Turn q_inc so the low-passed accelerometer points up; the turn's (x, y) rotation vector.
+
+        None while there is no gravity yet.
+        """
+        s = self._state
         a_i = s.acc_lp(rotate(s.q_gyr, acc))
         ax, ay, az = rotate(s.q_inc, a_i)
         n = math.sqrt(ax * ax + ay * ay + az * az)
         if n < 1e-6:
-            return  # no gravity yet
+            return None  # no gravity yet
         # The rotation taking the filtered direction to vertical: about (ay, -ax, 0) by
         # acos(az / n) (computed as atan2(|a_xy|, a_z), the same angle; a half-turn
         # about east when it points straight down).
         rx, ry, _ = tilt_to_up((ax, ay, az))
         s.q_inc = normalize(mul(from_rotvec(rx, ry, 0.0), s.q_inc))
-        if not self.flags.rest and s.t > p.startup_t:
-            self._learn_bias_in_motion(rx / dt, ry / dt, dt)
+        return rx, ry
 
-    def _learn_bias_in_motion(self, cx: float, cy: float, dt: float) -> None:
+    def _learn_bias_in_motion(self, q6: Quat, cx: float, cy: float, dt: float) -> None:
         """Integral action on the inclination correction rate (Mahony eq. 32).
 
         A constant bias b makes the strapdown frame turn by -R b per second; the
         correction then turns it back at (cx, cy) ~ (R b) horizontally. Only the
-        horizontal part is observable from gravity.
+        horizontal part is observable from gravity. ``q6`` is the corrected
+        ``q_inc * q_gyr``, which takes (cx, cy, 0) back to the sensor frame.
         """
         s, p = self._state, self.params
-        q6 = mul(s.q_inc, s.q_gyr)
         bx, by, bz = rotate_inverse(q6, (cx, cy, 0.0))
         k = p.bias_ki * dt
-        s.bias = self._clamp((s.bias[0] - k * bx, s.bias[1] - k * by, s.bias[2] - k * bz))
+        s.bias = self._clamp(s.bias[0] - k * bx, s.bias[1] - k * by, s.bias[2] - k * bz)
 
     # ------------------------------------------------------------ heading
 

@@ -1,0 +1,224 @@
+"""A simulated player for headless matches: it sees the arena, picks targets, moves its arm like a person.
+
+The bot plays through the same screens as a person. It presses Enter at the
+menu, and in the guided calibration it hangs its arm still, then raises it
+forward when the screen asks. Then it plays. Every game frame,
+:meth:`Bot.act` looks at what a player sees and answers with keys to press
+and the walking input. Its arm moves only through the motion it writes into a
+:class:`~game.motion_model.Script`: minimum-jerk reaches, the load, spin and
+launch of each throw, tremor, idle fidgeting. The headless match feeds that
+motion to the sensor simulator. The game then learns what the arm did only
+from the board's decoded samples, as with a person.
+
+How it plays:
+  Threat. Each walking zombie's threat is its time to contact: the distance
+  left to its reach, over its speed. The most threatening one is the target.
+  Facing. Outside +-45 deg of the body's facing, the bot first turns toward
+  the target (the keyboard's turn keys). It never turns while the arm is up,
+  which would swing the aim.
+  Throwing. After its reaction time, it raises the arm at the target, flexes
+  the elbow, spins and snaps it straight (:meth:`Script.gesture`). Aims are
+  azimuth and elevation from the shoulder to the target's chest. Better
+  players lead a walking zombie to where it will be at the launch. Each
+  angle gets Gaussian noise. With reloads, one raise throws at the next
+  targets too.
+  Walking. When a zombie would reach it within ``flee_s``, it walks away from
+  the near zombies and back toward the middle of the arena, while it keeps
+  throwing.
+  Fatigue. Per minute played, its movements slow by ``fatigue_per_min`` and
+  its aim noise grows by the same fraction.
+
+The bot's reaction is also what lets the simulator work ahead. The match
+computes sensor samples in blocks up to ``horizon``, and no new movement may
+start before the horizon (:meth:`act` delays it there). A reaction time
+at least as long as a block makes that delay invisible.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Sequence
+
+import numpy as np
+
+from .arena import Arena
+from .arena_model import Controls, Player, Zombie
+from .motion_model import PlayerProfile, Script, TrueLaunch
+
+CHEST_M = 1.2  # the height the bot aims at on a zombie (1.8 m tall)
+FACING_DEG = 45.0  # a target further off the body's facing is turned toward first
+NEAR_M = 6.0  # zombies within this push the fleeing bot away
+CENTRE_PULL = 0.6  # beyond this fraction of the arena's radius the fleeing bot heads inward too
+THROW_S = 2.7  # the typical time from the decision to a launch at speed 1 (reach, load, spin)
+RELOAD_S = 1.3  # and from one launch to the next of the same raise
+IDLE_S = (1.0, 2.5)  # fidgeting between waves, seconds
+FORGET_S = 1.0  # the motion script keeps this much past (the simulator never looks further back)
+
+
+@dataclass(frozen=True)
+class Skill:
+    """How well the bot plays: one difficulty level."""
+
+    reaction_s: float  # from seeing a change to starting to move (visual choice reaction time)
+    aim_noise_deg: float  # standard deviation of the aim, in azimuth and in elevation
+    speed: float  # movement speed factor (times the profile's)
+    fatigue_per_min: float  # per minute played: movements slow and aim noise grows by this fraction
+    leads_targets: bool  # aims where a walking zombie will be at the launch
+    flee_s: float  # walks away when a zombie would reach it within this time
+    reloads: int  # extra launches at further targets per raise of the arm
+
+
+DIFFICULTIES: dict[str, Skill] = {
+    "easy": Skill(reaction_s=0.55, aim_noise_deg=2.5, speed=0.8, fatigue_per_min=0.05,
+                  leads_targets=False, flee_s=1.5, reloads=0),
+    "normal": Skill(reaction_s=0.40, aim_noise_deg=1.2, speed=1.0, fatigue_per_min=0.03,
+                    leads_targets=True, flee_s=2.5, reloads=1),
+    "hard": Skill(reaction_s=0.28, aim_noise_deg=0.5, speed=1.3, fatigue_per_min=0.02,
+                  leads_targets=True, flee_s=3.5, reloads=2),
+}
+
+
+@dataclass(frozen=True)
+class Action:
+    """What the bot does this frame: keys pressed (by name: "return", "r") and the walking input."""
+
+    keys: tuple[str, ...] = ()
+    controls: Controls = Controls()
+
+
+@dataclass(frozen=True)
+class Screen:
+    """What the bot sees of the app: which screen, and the calibration's step."""
+
+    name: str  # "menu", "calibration", "play", "game_over", or another screen's name
+    step: str = ""  # the calibration's: "down", "forward", "done", "failed"
+
+
+class Bot:
+    """A simulated player; its arm motion is :attr:`script`, its intended launches :attr:`launches`."""
+
+    def __init__(self, skill: Skill, profile: PlayerProfile = PlayerProfile(), seed: int = 0) -> None:
+        self.skill = skill
+        self.profile = replace(profile, speed=min(4.0, profile.speed * skill.speed))
+        self.script = Script(self.profile, seed)
+        self.rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(1,)))
+        self.play_started: float | None = None
+        self._step_seen = ""  # the calibration step the bot last reacted to
+        self._lowered_at: float | None = None  # when the arm is back down after calibrating
+
+    @property
+    def launches(self) -> list[TrueLaunch]:
+        return self.script.launches
+
+    # ------------------------------------------------------------ the loop
+
+    def act(self, t: float, horizon: float, screen: Screen, arena: Arena,
+            shoulder: Sequence[float]) -> Action:
+        """This frame's keys and walking, at simulated time ``t``; new arm moves start after ``horizon``."""
+        start = max(t + self.skill.reaction_s, horizon)
+        if screen.name == "menu":
+            return Action(keys=("return",))
+        if screen.name == "calibration":
+            return self._calibrate(t, start, screen.step)
+        if screen.name != "play":
+            return Action()
+        if self.play_started is None:
+            self.play_started = t
+        return self._play(t, start, arena, shoulder)
+
+    def _calibrate(self, t: float, start: float, step: str) -> Action:
+        """Arm down and still; forward when asked; down again and Enter when done (R after a failure)."""
+        if step != self._step_seen:
+            self._step_seen = step
+            if step == "forward":
+                self.script.wait_until(start)
+                self.script.reach(0.0, 90.0, kind="calibration")
+            elif step in ("done", "failed"):
+                self.script.wait_until(start)
+                self._lowered_at = self.script.reach(0.0, 0.0, kind="calibration")
+        if step in ("done", "failed") and self._lowered_at is not None and t >= self._lowered_at:
+            self._lowered_at = None
+            return Action(keys=("return",) if step == "done" else ("r",))
+        return Action()
+
+    def _play(self, t: float, start: float, arena: Arena, shoulder: Sequence[float]) -> Action:
+        player = arena.player
+        walking = arena.alive_zombies
+        controls = self._flee(player, walking, arena)
+        if t < self.script.now:  # the arm is busy with what was planned
+            return Action(controls=controls)
+        minutes = (t - (self.play_started or t)) / 60.0
+        self._tire(minutes)
+        self.script.forget_before(t - FORGET_S)
+        if not walking:
+            self.script.wait_until(start)
+            self.script.idle(float(self.rng.uniform(*IDLE_S)))
+            return Action(controls=controls)
+        threats = sorted(walking, key=lambda z: self._time_to_contact(z, player, arena))
+        ahead = (start - t) + THROW_S / self.script.profile.speed
+        aims = []
+        for k, zombie in enumerate(threats[:1 + self.skill.reloads]):
+            az, el = self._aim(zombie, player, shoulder, ahead + k * RELOAD_S / self.script.profile.speed)
+            if abs(az) > FACING_DEG:
+                break
+            noise = self.skill.aim_noise_deg * (1.0 + self.skill.fatigue_per_min * minutes)
+            aims.append((az + float(self.rng.normal(0.0, noise)), el + float(self.rng.normal(0.0, noise))))
+        if not aims:  # turn toward the threat first (a positive turn is to the left)
+            azimuth, _ = self._aim(threats[0], player, shoulder, 0.0)
+            return Action(controls=replace(controls, turn=-math.copysign(1.0, azimuth)))
+        self.script.wait_until(start)
+        self.script.gesture(aims)
+        return Action(controls=controls)
+
+    # ------------------------------------------------------------ judgement
+
+    def _tire(self, minutes: float) -> None:
+        """Movements slow with minutes played (fatigue)."""
+        speed = self.profile.speed / (1.0 + self.skill.fatigue_per_min * minutes)
+        self.script.profile = replace(self.profile, speed=max(0.25, speed))
+
+    @staticmethod
+    def _time_to_contact(zombie: Zombie, player: Player, arena: Arena) -> float:
+        gap = math.hypot(zombie.x - player.x, zombie.y - player.y) - arena.settings.contact_distance_m
+        return max(0.0, gap) / max(zombie.speed, 1e-6)
+
+    def _aim(self, zombie: Zombie, player: Player, shoulder: Sequence[float], ahead_s: float
+             ) -> tuple[float, float]:
+        """(azimuth, elevation) in degrees from the shoulder to the zombie's chest, ``ahead_s`` from now
+        if the bot leads its targets (the zombie walks straight at the player, stopping at reach)."""
+        x, y = zombie.x, zombie.y
+        if self.skill.leads_targets and ahead_s > 0:
+            dx, dy = player.x - x, player.y - y
+            gap = math.hypot(dx, dy)
+            walk = min(zombie.speed * ahead_s, max(0.0, gap - 0.9))
+            if gap > 1e-9:
+                x, y = x + dx / gap * walk, y + dy / gap * walk
+        dx, dy, dz = x - shoulder[0], y - shoulder[1], CHEST_M - shoulder[2]
+        c, s = math.cos(player.yaw), math.sin(player.yaw)
+        right, forward = dx * c + dy * s, -dx * s + dy * c  # yaw 0 faces +y; right = (cos, sin)
+        azimuth = math.degrees(math.atan2(right, forward))
+        elevation = 90.0 + math.degrees(math.atan2(dz, math.hypot(right, forward)))
+        return azimuth, elevation
+
+    def _flee(self, player: Player, walking: list[Zombie], arena: Arena) -> Controls:
+        """Walk away from near zombies (and inward near the edge) when one is about to reach the bot."""
+        if not walking or min(self._time_to_contact(z, player, arena) for z in walking) > self.skill.flee_s:
+            return Controls()
+        wx = wy = 0.0
+        for z in walking:
+            dx, dy = player.x - z.x, player.y - z.y
+            d2 = dx * dx + dy * dy
+            if d2 < NEAR_M * NEAR_M:
+                wx, wy = wx + dx / max(d2, 0.01), wy + dy / max(d2, 0.01)
+        r = math.hypot(player.x, player.y)
+        edge = arena.settings.arena_radius_m * CENTRE_PULL
+        if r > edge:
+            push = math.hypot(wx, wy) or 1.0
+            wx, wy = wx - player.x / r * push, wy - player.y / r * push
+        norm = math.hypot(wx, wy)
+        if norm < 1e-9:
+            return Controls()
+        wx, wy = wx / norm, wy / norm
+        c, s = math.cos(player.yaw), math.sin(player.yaw)
+        return Controls(forward=-wx * s + wy * c, strafe=wx * c + wy * s)

@@ -1,0 +1,436 @@
+"""Headless simulated matches: a bot wears a simulated board, and every layer runs as in a real game.
+
+One match, frame by frame (``FRAME_HZ``, simulated time):
+
+1. The bot (:mod:`game.bot`) sees the screen and the arena. It presses keys,
+   walks, and writes its arm's next moves into its motion script.
+2. The board (:class:`SimBoard`) runs its firmware loop up to the frame's
+   time. The sensor simulator (:mod:`tracker.sim`) measures the bot's arm
+   at 200 Hz, with MPU-9250 errors and the flex circuit. Each sample is
+   quantised and framed as the firmware does it. The injected link faults
+   (:class:`tracker.board.Faults`) corrupt or drop bytes, or stall the loop.
+3. The bytes cross the wire: in memory, or with ``pty`` through a real
+   pseudo-terminal read by pyserial.
+4. The app's own frame (:meth:`game.app.App.frame`) runs the rest:
+   :class:`WireInput` decodes the frames (:class:`tracker.protocol.FrameDecoder`)
+   and feeds :mod:`game.tracking`. That is the ``default`` filter with the
+   board's six-pose accelerometer calibration, done once by its maker and
+   simulated here, and the flex tracker. Then come the screens, the bot's
+   guided calibration, the avatar, the gesture machine and the arena.
+   Drawing is skipped unless ``render``.
+
+Launches are scored against the bot's intentions with the gesture evaluation's
+rules (:func:`game.gesture_eval.score_launches`), in the body frame. A launch
+the match ended before it could be seen is not counted. Every random draw is
+seeded from the match's seed, so a match's results (all but ``timing``) are
+the same run after run and on any number of worker processes.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import pty
+import resource
+import statistics
+import tempfile
+import time
+import tty
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Callable
+
+os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
+
+from tracker import protocol as P  # noqa: E402
+from tracker.board import (AK8963_WHOAMI, FIRMWARE_VERSION, MPU9250_WHOAMI, Faults,  # noqa: E402
+                           FaultInjector, acc_lsb, counts, gyr_lsb)
+from tracker.sim import Motion, Simulator  # noqa: E402
+
+from .arena_model import Controls  # noqa: E402
+from .bot import DIFFICULTIES, Bot, Screen  # noqa: E402
+from .controls import SampleInput  # noqa: E402
+from .gesture_eval import MATCH_AFTER_S, TrialResult, maker_calibration, score_launches  # noqa: E402
+from .gestures import GestureEvent  # noqa: E402
+from .motion_model import PlayerProfile  # noqa: E402
+from .pose import ArmPose  # noqa: E402
+from .tracking import Tracking  # noqa: E402
+
+FRAME_HZ = 60  # the game's frame rate in simulated time
+RATE_HZ = 200  # the board's default sample rate
+BLOCK = 50  # samples the simulator computes at once (0.25 s: no bot reacts faster)
+SIZE = (960, 540)  # the dummy window's size when rendering
+MAX_SETUP_S = 90.0  # menu and calibration take at most this long, or the match is abandoned
+ACC_FS_G, GYR_FS_DPS = 16, 2000  # the firmware's default full scales
+Counts = tuple[tuple[int, ...], tuple[int, ...], tuple[int, ...], int]  # acc, gyr, mag, flex ADC
+
+
+@dataclass(frozen=True)
+class MatchConfig:
+    """One match's settings (JSON-able through ``dataclasses.asdict``)."""
+
+    seed: int = 0
+    duration_s: float = 120.0  # play time (after the calibration) at most
+    difficulty: str = "normal"
+    profile: PlayerProfile = PlayerProfile()
+    faults: Faults = field(default_factory=Faults)
+    render: bool = False  # draw every frame (the dummy video driver)
+    pty: bool = False  # the bytes go through a real pty and pyserial
+
+    def __post_init__(self) -> None:
+        if self.difficulty not in DIFFICULTIES:
+            raise ValueError(f"difficulty must be one of {', '.join(DIFFICULTIES)}, not {self.difficulty!r}")
+        if not (math.isfinite(self.duration_s) and self.duration_s > 0):
+            raise ValueError(f"duration must be a positive number of seconds, not {self.duration_s!r}")
+
+
+# ----------------------------------------------------------------- the board
+
+
+@dataclass
+class BoardTally:
+    """What the simulated board sent and what the faults did to it."""
+
+    frames_sent: int = 0  # sample frames
+    frames_damaged: int = 0  # sample frames that lost or changed a byte
+    damaged_header_intact: int = 0  # of those, the header (sync, length, type) arrived whole: the CRC must fail
+    samples_stalled: int = 0  # samples not taken while the loop was frozen
+
+
+class SimBoard:
+    """The board's firmware loop in simulated time: the simulator's samples, quantised and framed.
+
+    Samples are computed a block at a time; :attr:`horizon` is the time up
+    to which they are fixed, so the motion may change only after it.
+    """
+
+    def __init__(self, sim: Simulator, faults: Faults = Faults(), rate_hz: int = RATE_HZ,
+                 block: int = BLOCK) -> None:
+        self.stream = sim.stream(rate_hz)
+        self.rate_hz, self.block = rate_hz, block
+        self.faults = faults
+        self.injector = FaultInjector(faults)
+        self.tally = BoardTally()
+        self._readings: list[Counts] = []
+        self._first = 0  # sample index of _readings[0]
+        self._next = 0  # the next sample index to send
+        self._seq = 0
+
+    @property
+    def horizon(self) -> float:
+        """Simulated seconds up to which the samples are computed."""
+        return (self._first + len(self._readings)) / self.rate_hz
+
+    def hello(self) -> bytes:
+        """The hello frame the firmware sends at power-up."""
+        return P.encode_hello(P.Hello(P.PROTOCOL_VERSION, FIRMWARE_VERSION, MPU9250_WHOAMI, AK8963_WHOAMI,
+                                      self.rate_hz, P.Mode.RAW, True, ACC_FS_G, GYR_FS_DPS,
+                                      P.BoardError.NONE))
+
+    def run_until(self, t: float) -> bytes:
+        """The bytes the board sends for every sample due by ``t`` (seconds since power-up)."""
+        out = bytearray()
+        while self._next <= t * self.rate_hz + 1e-9:
+            k = self._next
+            self._next += 1
+            ts = k / self.rate_hz
+            if self.faults.stalled(ts):
+                self.tally.samples_stalled += 1  # a frozen loop takes no sample: no sequence number
+                continue
+            out += self._send(self._frame(k, ts))
+        return bytes(out)
+
+    def _frame(self, k: int, t: float) -> bytes:
+        seq, self._seq = self._seq, (self._seq + 1) & 0xFFFF
+        acc, gyr, mag, flex = self._reading(k)
+        return P.encode_raw(P.RawSample(t, round(t * 1e6) & 0xFFFFFFFF, seq, acc, gyr, mag, flex,
+                                        ACC_FS_G, GYR_FS_DPS))
+
+    def _send(self, frame: bytes) -> bytes:
+        wire = self.injector.apply(frame)
+        tally = self.tally
+        tally.frames_sent += 1
+        if wire != frame:
+            tally.frames_damaged += 1
+            tally.damaged_header_intact += wire[:P.HEADER_SIZE] == frame[:P.HEADER_SIZE]
+        return wire
+
+    def _reading(self, k: int) -> Counts:
+        i = k - self._first
+        if i >= len(self._readings):
+            self._first = k
+            self._readings = self._compute(k, k + self.block)
+            i = 0
+        return self._readings[i]
+
+    def _compute(self, k0: int, k1: int) -> list[Counts]:
+        """Samples k0..k1-1 as the MPU-9250 and the ADC read them (:func:`tracker.board.quantise`'s rule)."""
+        data = self.stream.block(k0, k1)
+        acc = counts(data.acc[:, 0], acc_lsb(ACC_FS_G)).tolist()
+        gyr = counts(data.gyr[:, 0], gyr_lsb(GYR_FS_DPS)).tolist()
+        mag = counts(data.mag[:, 0], P.MAG_UT_PER_COUNT).tolist()
+        return [(tuple(a), tuple(g), tuple(m), int(f)) for a, g, m, f in zip(acc, gyr, mag, data.flex_adc)]
+
+
+# ----------------------------------------------------------------- the wire
+
+
+class MemoryWire:
+    """Bytes handed straight from the board to the host."""
+
+    label = "simulated board (in memory)"
+
+    def __init__(self) -> None:
+        self._pending = bytearray()
+
+    def write(self, data: bytes) -> None:
+        self._pending += data
+
+    def read(self) -> bytes:
+        data, self._pending = bytes(self._pending), bytearray()
+        return data
+
+    def close(self) -> None:
+        pass
+
+
+class PtyWire:
+    """Bytes through a real pseudo-terminal: the board writes its end, the host reads the port with pyserial.
+
+    The host reads exactly as many bytes as were written (a pty may hand
+    them over a little later), so the match stays deterministic.
+    """
+
+    def __init__(self, timeout_s: float = 5.0) -> None:
+        import serial  # the pty path needs pyserial; the in-memory one does not
+        self._master, slave = pty.openpty()
+        tty.setraw(self._master)
+        self.port_name = os.ttyname(slave)
+        self._slave = slave
+        self.port = serial.Serial(self.port_name, baudrate=P.DEFAULT_BAUD, timeout=timeout_s)
+        self.label = f"simulated board on {self.port_name}"
+        self._pending = 0
+
+    def write(self, data: bytes) -> None:
+        view = memoryview(data)
+        while view:
+            n = os.write(self._master, view)
+            view = view[n:]
+        self._pending += len(data)
+
+    def read(self) -> bytes:
+        data = self.port.read(self._pending)
+        if len(data) < self._pending:
+            raise OSError(f"the pty delivered {len(data)} of {self._pending} bytes in time")
+        self._pending = 0
+        return data
+
+    def close(self) -> None:
+        self.port.close()
+        for fd in (self._master, self._slave):
+            os.close(fd)
+
+
+class WireInput(SampleInput):
+    """The game's input from the wire: frames decoded, samples through :mod:`game.tracking`."""
+
+    def __init__(self, wire: MemoryWire | PtyWire, tracking: Tracking) -> None:
+        super().__init__(tracking)
+        self.wire = wire
+        self.decoder = P.FrameDecoder()
+        self.samples_decoded = 0
+        self.status = wire.label
+        self.opened.set()
+
+    def poll(self) -> ArmPose | None:
+        packets = self.decoder.feed(self.wire.read())
+        samples = [p for p in packets if isinstance(p, P.RawSample)]
+        self.samples_decoded += len(samples)
+        return self.feed(samples)
+
+
+# ----------------------------------------------------------------- one match
+
+
+@dataclass
+class Observed:
+    """What the match records as it runs: launches (body frame) and when play ran."""
+
+    launches: list[GestureEvent] = field(default_factory=list)
+    play_start: float | None = None
+    play_end: float | None = None
+    rss_mb: list[float] = field(default_factory=list)  # after the first minute of play, at the end
+
+
+def _body_frame(event: GestureEvent, body_yaw: float) -> GestureEvent:
+    """The event with its world direction turned into the body's frame (undo the body's yaw)."""
+    x, y, z = event.direction
+    c, s = math.cos(body_yaw), math.sin(body_yaw)
+    return replace(event, direction=(c * x + s * y, -s * x + c * y, z))
+
+
+def _rss_mb() -> float:
+    """The process's resident memory now, MB (Linux /proc; the peak elsewhere)."""
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 1e6
+    except OSError:
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e6
+
+
+def run_match(config: MatchConfig) -> dict:
+    """Play one match; its report (``timing`` holds the wall-clock figures)."""
+    import pygame
+
+    from .app import App, Calibration, GameOver, Menu, Play
+    from .preferences import Preferences
+
+    wall0 = time.perf_counter()
+    profile, seed = config.profile, config.seed
+    bot = Bot(DIFFICULTIES[config.difficulty], profile, seed)
+    sim = Simulator(profile.chain(), Motion(bot.script.root, bot.script.joints, bot.script.pose), profile.sensor_errors(),
+                    profile.flex_sensor(), seed=seed)
+    board = SimBoard(sim, replace(config.faults, seed=seed))
+    wire = PtyWire() if config.pty else MemoryWire()
+    seen = Observed()
+    keys = {"return": pygame.K_RETURN, "r": pygame.K_r}
+    with tempfile.TemporaryDirectory(prefix="energyball-match-") as folder:
+        app = App(Preferences(input="keyboard", volume=0.0, music_volume=0.0), config_dir=Path(folder),
+                  seed=seed, size=SIZE)
+        game = app.game
+        source = WireInput(wire, Tracking(board=maker_calibration(profile, seed)))
+        game.use_source(source)
+        walking = [Controls()]
+        game.walker = lambda: walking[0]
+        game.on_launch = lambda event: seen.launches.append(_body_frame(event, game.avatar.body_yaw))
+        wire.write(board.hello())
+        frame, t = 0, 0.0
+        try:
+            while True:
+                screen = app.screen
+                if seen.play_start is None and isinstance(screen, Play):
+                    seen.play_start = t
+                playing = 0.0 if seen.play_start is None else t - seen.play_start
+                if isinstance(screen, GameOver) or playing >= config.duration_s or \
+                        (seen.play_start is None and t > MAX_SETUP_S):
+                    break
+                if playing >= 60.0 and len(seen.rss_mb) == 0:
+                    seen.rss_mb.append(_rss_mb())
+                frame += 1
+                t = frame / FRAME_HZ
+                view = _screen(screen, Menu, Calibration, Play, GameOver)
+                action = bot.act(t, board.horizon, view, game.arena, game.avatar.world_pos[
+                    f"{game.avatar.body.side}_upper_arm"])
+                walking[0] = action.controls
+                wire.write(board.run_until(t))
+                events = [pygame.event.Event(pygame.KEYDOWN, key=keys[k], mod=0, unicode="") for k in action.keys]
+                app.frame(events, 1.0 / FRAME_HZ, draw=config.render)
+        finally:
+            seen.play_end = t
+            seen.rss_mb.append(_rss_mb())
+            app.close()
+            wire.close()
+    return _report(config, bot, board, source, game.arena, seen, time.perf_counter() - wall0)
+
+
+def _screen(screen: object, menu: type, calibration: type, play: type, game_over: type) -> Screen:
+    """What the bot sees of the app's current screen."""
+    if isinstance(screen, calibration):
+        return Screen("calibration", screen.step)
+    names = {menu: "menu", play: "play", game_over: "game_over"}
+    return Screen(next((n for cls, n in names.items() if isinstance(screen, cls)), type(screen).__name__))
+
+
+def _report(config: MatchConfig, bot: Bot, board: SimBoard, source: WireInput, arena, seen: Observed,
+            wall_s: float) -> dict:
+    t_end = seen.play_end or 0.0
+    result = TrialResult(true_launches=len(bot.launches))
+    unmatched = score_launches(bot.launches, bot.script.idle_intervals, seen.launches, result)
+    unseen = sum(1 for x in unmatched if x.t_straight + MATCH_AFTER_S > t_end)  # the match ended first
+    intended = result.true_launches - unseen
+    detected = len(seen.launches)
+    stats = source.decoder.stats
+    survived = 0.0 if seen.play_start is None else t_end - seen.play_start
+    report = {
+        "seed": config.seed, "difficulty": config.difficulty, "duration_s": round(t_end, 4),
+        "score": int(arena.score), "kills": arena.kills, "shots": arena.shots, "hits": arena.hits,
+        "waves": arena.wave, "survived_s": round(survived, 4), "game_over": bool(arena.game_over),
+        "intended_launches": intended, "detected_launches": detected,
+        "false_launches": result.false_launches,
+        "launch_precision": round(result.matched / detected, 4) if detected else None,
+        "launch_recall": round(result.matched / intended, 4) if intended else None,
+        "aim_error_deg_median": round(statistics.median(result.aim_errors_deg), 3) if result.aim_errors_deg else None,
+        "latency_ms_median": round(statistics.median(result.latencies_ms), 2) if result.latencies_ms else None,
+        "frames_sent": board.tally.frames_sent, "frames_decoded": source.samples_decoded,
+        "crc_errors": stats.crc_errors, "dropped": stats.dropped,
+        "injected": {"bytes_corrupted": board.injector.bytes_corrupted,
+                     "bytes_dropped": board.injector.bytes_dropped,
+                     "frames_damaged": board.tally.frames_damaged,
+                     "damaged_header_intact": board.tally.damaged_header_intact,
+                     "samples_stalled": board.tally.samples_stalled},
+    }
+    report["timing"] = {"wall_s": round(wall_s, 3), "sim_speed": round(t_end / wall_s, 1),
+                        "rss_mb_after_first_minute": round(seen.rss_mb[0], 1) if len(seen.rss_mb) > 1 else None,
+                        "rss_mb_end": round(seen.rss_mb[-1], 1),
+                        "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e6, 1)}
+    return report
+
+
+# ----------------------------------------------------------------- many matches
+
+
+def run_matches(configs: list[MatchConfig], workers: int = 1,
+                progress: Callable[[str], None] | None = None) -> dict:
+    """Play the matches (on ``workers`` processes); the report with per-match results and a summary."""
+    wall0 = time.perf_counter()
+    reports: list[dict] = []
+    if workers > 1 and len(configs) > 1:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            for report in pool.map(run_match, configs):
+                reports.append(report)
+                _progress(progress, report, len(configs), len(reports))
+    else:
+        for config in configs:
+            reports.append(run_match(config))
+            _progress(progress, reports[-1], len(configs), len(reports))
+    wall = time.perf_counter() - wall0
+    return {"matches": reports, "summary": summarise(reports, wall)}
+
+
+def _progress(progress: Callable[[str], None] | None, r: dict, total: int, done: int) -> None:
+    if progress:
+        progress(f"match {done}/{total} (seed {r['seed']}, {r['difficulty']}): score {r['score']}, "
+                 f"{r['kills']} kills, survived {r['survived_s']:.0f} s, launches {r['detected_launches']}/"
+                 f"{r['intended_launches']}, {r['false_launches']} false, {r['timing']['sim_speed']:.0f}x")
+
+
+def summarise(reports: list[dict], wall_s: float) -> dict:
+    """Totals and means over the matches; wall-clock figures under ``timing``."""
+    def total(key: str) -> int:
+        return sum(r[key] for r in reports)
+
+    def mean(key: str) -> float | None:
+        values = [r[key] for r in reports if r[key] is not None]
+        return round(statistics.fmean(values), 4) if values else None
+
+    detected, intended = total("detected_launches"), total("intended_launches")
+    matched = detected - total("false_launches")
+    simulated = sum(r["duration_s"] for r in reports)
+    return {
+        "matches": len(reports),
+        **{k: total(k) for k in ("kills", "shots", "hits", "intended_launches", "detected_launches",
+                                 "false_launches", "frames_sent", "frames_decoded", "crc_errors", "dropped")},
+        "launch_precision": round(matched / detected, 4) if detected else None,
+        "launch_recall": round(matched / intended, 4) if intended else None,
+        **{f"mean_{k}": mean(k) for k in ("score", "survived_s", "kills", "waves", "aim_error_deg_median")},
+        "game_overs": sum(1 for r in reports if r["game_over"]),
+        "timing": {"wall_s": round(wall_s, 3), "simulated_s": round(simulated, 2),
+                   "sim_speed": round(simulated / wall_s, 1) if wall_s > 0 else None},
+    }
+
+
+def configs(seed: int, matches: int, **settings) -> list[MatchConfig]:
+    """``matches`` match settings with seeds ``seed``, ``seed + 1``, ..."""
+    return [MatchConfig(seed=seed + k, **settings) for k in range(matches)]
