@@ -579,7 +579,8 @@ class App:
     """The window, the clock and the current screen."""
 
     def __init__(self, prefs: Preferences | None = None, input_choice: str | None = None,
-                 config_dir: Path | None = None, seed: int = 0, size: tuple[int, int] = WINDOW) -> None:
+                 config_dir: Path | None = None, seed: int = 0, size: tuple[int, int] = WINDOW,
+                 draws: bool = True) -> None:
         pygame.init()
         # The link's reader thread must get the GIL promptly while frames draw: switch
         # threads every 0.5 ms rather than Python's default 5 ms (input latency).
@@ -595,7 +596,8 @@ class App:
         scores, score_notice = load_scores(config_dir)
         self.game = Game(loaded, audio, Renderer(self.surface.get_size()), scores=scores,
                          seed=seed, config_dir=config_dir)
-        self.game.renderer.prepare(self.surface.get_size())
+        if draws:  # a headless match that never draws skips the drawing's preparations
+            self.game.renderer.prepare(self.surface.get_size())
         self.game.notices += [n for n in (notice, score_notice, audio.notice) if n]
         apply_input(self.game)
         self.game.new_round()

@@ -42,6 +42,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 from enum import Enum
+from functools import cached_property
 from operator import attrgetter
 
 import numpy as np
@@ -259,6 +260,36 @@ class ArenaSettings:
         multiplier = 1.0 + self.score_wave_bonus * max(0, wave - 1)
         return int(round(self.score_per_hit * (1.0 + charge) * multiplier))
 
+    @cached_property
+    def _per_step(self) -> _PerStep:
+        """The numbers every fixed step uses, worked out once per (frozen) settings."""
+        return _PerStep(self)
+
+
+class _PerStep:
+    """Constants of the fixed step derived from :class:`ArenaSettings`, so that
+    :meth:`Arena.step` does not work them out again 120 times a second. Each is
+    the very expression the step used, so the floats are the same."""
+
+    __slots__ = ("player_step", "stop", "phase_per_m", "max_turn", "knock_decay", "fall", "gap", "gap2",
+                 "radius2", "reach2", "ball_fall", "ball_exit2", "fade_step")
+
+    def __init__(self, s: ArenaSettings) -> None:
+        dt = s.dt_s
+        self.player_step = s.player_speed_m_s * dt  # metres walked per step at full input
+        self.stop = STOP_FRACTION * s.contact_distance_m  # a zombie walks no closer than this
+        self.phase_per_m = TAU / s.zombie_stride_m if s.zombie_stride_m > 0 else 0.0
+        self.max_turn = s.zombie_turn_rate * dt  # a zombie's largest turn per step
+        self.knock_decay = math.exp(-dt / s.knockback_s)  # a knock-back slide's speed left after a step
+        self.fall = s.gravity * dt  # a flying zombie's vertical speed lost per step
+        self.gap = 2.0 * s.zombie_radius_m  # two walking zombies closer than this are pushed apart
+        self.gap2 = self.gap * self.gap
+        self.radius2 = s.arena_radius_m * s.arena_radius_m
+        self.reach2 = s.contact_distance_m ** 2
+        self.ball_fall = s.ball_gravity * dt
+        self.ball_exit2 = (s.arena_radius_m + BALL_EXIT_MARGIN_M) ** 2
+        self.fade_step = dt / s.ball_fade_s  # a missed ball's fade per step
+
 
 # ---------------------------------------------------------------- geometry
 
@@ -326,7 +357,9 @@ def _input(value: float) -> float:
         value = float(value)
     except (TypeError, ValueError):
         return 0.0
-    return 0.0 if math.isnan(value) else max(-1.0, min(1.0, value))
+    if math.isnan(value):
+        return 0.0
+    return -1.0 if value < -1.0 else 1.0 if value > 1.0 else value
 
 
 _by_x = attrgetter("x")
@@ -513,13 +546,11 @@ class Arena:
         dt = s.dt_s
         self.ticks += 1
         self.time = self.ticks * dt
-        if any(z.state is ZombieState.GONE for z in self.zombies):
-            self.zombies = [z for z in self.zombies if z.state is not ZombieState.GONE]
         self._move_player(controls, dt)
         self._update_wave(events, dt)
-        self._move_zombies(dt)
-        self._move_balls(events, dt)
-        self._contact(events, dt)
+        walking = self._move_zombies(dt)
+        self._move_balls(events, dt, walking)
+        self._contact(events, dt, walking)
         if not self.game_over and not self._between_waves and self._to_spawn == 0 and self._walking == 0:
             self._between_waves = True
             self._pause_left = s.wave_pause_s
@@ -534,13 +565,13 @@ class Arena:
         s, p = self.settings, self.player
         forward, strafe, turn = _input(controls.forward), _input(controls.strafe), _input(controls.turn)
         p.yaw = _wrap(p.yaw + turn * s.player_turn_rate * dt)
-        length = math.hypot(forward, strafe)
-        if length > 1.0:  # diagonals no faster than straight
-            forward, strafe = forward / length, strafe / length
         if forward or strafe:
+            length = math.hypot(forward, strafe)
+            if length > 1.0:  # diagonals no faster than straight
+                forward, strafe = forward / length, strafe / length
             c, si = math.cos(p.yaw), math.sin(p.yaw)
             # yaw 0 faces +y; forward = (-sin, cos), right = (cos, sin)
-            step = s.player_speed_m_s * dt
+            step = s._per_step.player_step
             x = p.x + step * (-si * forward + c * strafe)
             y = p.y + step * (c * forward + si * strafe)
             r = math.hypot(x, y)
@@ -597,23 +628,27 @@ class Arena:
 
     # ------------------------------------------------------------ zombies
 
-    def _move_zombies(self, dt: float) -> None:
-        s, p = self.settings, self.player
+    def _move_zombies(self, dt: float) -> list[Zombie]:
+        """Walk, turn and separate the walking zombies, fly the flying ones; return the walking ones.
+
+        A zombie marked GONE at an earlier step is dropped from :attr:`zombies`
+        here; one that lands now is marked GONE and dropped at the next step.
+        The loop runs for every zombie 120 times a second: constants are locals.
+        """
+        s, per, p = self.settings, self.settings._per_step, self.player
         px, py = p.x, p.y
-        stop = STOP_FRACTION * s.contact_distance_m
-        phase_per_m = TAU / s.zombie_stride_m if s.zombie_stride_m > 0 else 0.0
-        max_turn = s.zombie_turn_rate * dt
-        decay = math.exp(-dt / s.knockback_s)
-        g = s.gravity
-        atan2, sqrt, pi = math.atan2, math.sqrt, math.pi
-        walking = []
-        for z in self.zombies:
+        stop, phase_per_m, max_turn, decay, fall = per.stop, per.phase_per_m, per.max_turn, per.knock_decay, per.fall
+        max_age, max_height = s.flying_max_s, s.flying_max_height_m
+        atan2, sqrt, pi, tau = math.atan2, math.sqrt, math.pi, TAU
+        walking_state, flying_state = ZombieState.WALKING, ZombieState.FLYING
+        zombies = self.zombies
+        walking, landed, stale = [], [], False
+        for z in zombies:
             state = z.state
-            if state is ZombieState.WALKING:
+            if state is walking_state:
                 z.age += dt
-                knock = z.velocity
-                if knock[0] or knock[1]:
-                    kvx, kvy = knock[0], knock[1]
+                kvx, kvy, _ = z.velocity
+                if kvx or kvy:  # sliding from a knock-back
                     z.x += kvx * dt
                     z.y += kvy * dt
                     kvx, kvy = kvx * decay, kvy * decay
@@ -628,53 +663,69 @@ class Arena:
                     z.x = x + dx / d * walk
                     z.y = y + dy / d * walk
                     phase = z.phase + walk * phase_per_m
-                    z.phase = phase - TAU if phase >= TAU else phase
+                    z.phase = phase - tau if phase >= tau else phase
                 if d > 1e-9:  # turn toward the player, at most max_turn; angles stay in [-pi, pi)
                     heading = z.heading
                     turn = atan2(dy, dx) - heading
                     if turn >= pi:
-                        turn -= TAU
+                        turn -= tau
                     elif turn < -pi:
-                        turn += TAU
+                        turn += tau
                     if turn > max_turn:
                         turn = max_turn
                     elif turn < -max_turn:
                         turn = -max_turn
                     if turn:
                         heading += turn
-                        z.heading = heading - TAU if heading >= pi else heading + TAU if heading < -pi else heading
+                        z.heading = heading - tau if heading >= pi else heading + tau if heading < -pi else heading
                 walking.append(z)
-            elif state is ZombieState.FLYING:
+            elif state is flying_state:
                 z.age += dt
                 vx, vy, vz = z.velocity
-                vz -= g * dt  # semi-implicit Euler
+                vz -= fall  # semi-implicit Euler
                 z.velocity = (vx, vy, vz)
                 z.x += vx * dt
                 z.y += vy * dt
-                z.z += vz * dt
-                z.spin = (z.spin + z.spin_rate * dt) % TAU
-                if z.age >= s.flying_max_s or z.z > s.flying_max_height_m or (z.z < 0.0 and vz < 0.0):
-                    z.state = ZombieState.GONE
-                    z.age = 0.0
-        self._separate(walking)
+                height = z.z = z.z + vz * dt
+                z.spin = (z.spin + z.spin_rate * dt) % tau
+                if z.age >= max_age or height > max_height or (height < 0.0 and vz < 0.0):
+                    landed.append(z)
+            else:  # GONE since an earlier step
+                stale = True
+        if stale:
+            self.zombies = [z for z in zombies if z.state is not ZombieState.GONE]
+        for z in landed:
+            z.state = ZombieState.GONE
+            z.age = 0.0
         self._walking = len(walking)
+        self._separate(sorted(walking, key=_by_x))
+        return walking
 
     def _separate(self, walking: list[Zombie]) -> None:
         """Push apart walking zombies closer than two radii (half the overlap each), then keep them
-        inside the arena. Sweep and prune along x: only neighbours within two radii in x are paired."""
-        s = self.settings
-        gap = 2.0 * s.zombie_radius_m
-        gap2 = gap * gap
-        walking.sort(key=_by_x)
+        inside the arena.
+
+        ``walking`` is sorted by x. A sweep along x pairs each zombie with the
+        following ones less than two radii further in x (none when the next one
+        is that far), and applies the pushes in that order.
+        """
+        s, per = self.settings, self.settings._per_step
+        gap, gap2 = per.gap, per.gap2
+        sqrt = math.sqrt
         xs = [z.x for z in walking]  # plain lists: much faster than attributes in the pair loop
         ys = [z.y for z in walking]
         n = len(walking)
-        for i in range(n):
+        moved = False
+        for i in range(n - 1):
+            xi = xs[i]
+            if xs[i + 1] - xi >= gap:
+                continue
+            yi = ys[i]
             for j in range(i + 1, n):
-                dx = xs[j] - xs[i]
+                dx = xs[j] - xi
                 if dx >= gap:
                     break
-                dy = ys[j] - ys[i]
+                dy = ys[j] - yi
                 d2 = dx * dx + dy * dy
                 if d2 >= gap2:
                     continue
@@ -682,39 +733,43 @@ class Arena:
                     angle = (walking[i].id * 2.399963 + walking[j].id) % TAU
                     ux, uy = 0.5 * gap * math.cos(angle), 0.5 * gap * math.sin(angle)
                 else:
-                    d = math.sqrt(d2)
+                    d = sqrt(d2)
                     k = 0.5 * (gap - d) / d
                     ux, uy = dx * k, dy * k
-                xs[i] -= ux
-                ys[i] -= uy
+                xi -= ux
+                yi -= uy
                 xs[j] += ux
                 ys[j] += uy
-        radius = s.arena_radius_m
-        r2 = radius * radius
+                moved = True
+            xs[i], ys[i] = xi, yi
+        radius, r2 = s.arena_radius_m, per.radius2
         for z, x, y in zip(walking, xs, ys):
             d2 = x * x + y * y
             if d2 > r2:
-                k = radius / math.sqrt(d2)
-                x, y = x * k, y * k
-            z.x, z.y = x, y
+                k = radius / sqrt(d2)
+                z.x, z.y = x * k, y * k
+            elif moved:
+                z.x, z.y = x, y
 
     # ------------------------------------------------------------ balls
 
-    def _move_balls(self, events: list[ArenaEvent], dt: float) -> None:
-        s = self.settings
-        exit2 = (s.arena_radius_m + BALL_EXIT_MARGIN_M) ** 2
+    def _move_balls(self, events: list[ArenaEvent], dt: float, walking: list[Zombie]) -> None:
+        """Fly the balls, which hit the zombies of ``walking`` (this step's, still walking); fade
+        the missed ones."""
+        s, per = self.settings, self.settings._per_step
+        exit2 = per.ball_exit2
         kept = []
         for ball in self.balls:
             if ball.state is BallState.FADING:
                 ball.age += dt
-                ball.fade -= dt / s.ball_fade_s
+                ball.fade -= per.fade_step
                 ball.trail.append(ball.position)  # the trail shrinks into the ball
                 if ball.fade > 0.0:
                     kept.append(ball)
                 continue
             vx, vy, vz = ball.velocity
             if s.ball_gravity:
-                vz -= s.ball_gravity * dt
+                vz -= per.ball_fall
                 ball.velocity = (vx, vy, vz)
             x0, y0, z0 = ball.position
             x1, y1, z1 = x0 + vx * dt, y0 + vy * dt, z0 + vz * dt
@@ -722,7 +777,7 @@ class Arena:
             if z1 < 0.0:
                 limit = z0 / (z0 - z1) if z0 > 0.0 else 0.0
             radius = s.ball_radius(ball.charge)
-            hit = self._first_hit((x0, y0, z0), (x1, y1, z1), radius, limit)
+            hit = self._first_hit((x0, y0, z0), (x1, y1, z1), radius, limit, walking)
             if hit is not None:
                 zombie, t = hit
                 contact = (x0 + (x1 - x0) * t, y0 + (y1 - y0) * t, z0 + (z1 - z0) * t)
@@ -740,27 +795,29 @@ class Arena:
             kept.append(ball)
         self.balls = kept
 
-    def _first_hit(self, p0: Vec3, p1: Vec3, ball_radius: float, limit: float) -> tuple[Zombie, float] | None:
-        """The walking zombie the ball's path p0p1 touches first (at most ``limit`` along it), with
-        the parameter of its closest approach; None if none."""
+    def _first_hit(self, p0: Vec3, p1: Vec3, ball_radius: float, limit: float,
+                   walking: list[Zombie]) -> tuple[Zombie, float] | None:
+        """The zombie of ``walking`` (in the order of :attr:`zombies`) still walking that the ball's
+        path p0p1 touches first (at most ``limit`` along it), with the parameter of its closest
+        approach; None if none."""
         s = self.settings
         r = s.zombie_radius_m
         reach = ball_radius + r
         top = s.zombie_height_m - r
         x0, y0, z0 = p0
         x1, y1, z1 = p1
-        lox, hix = min(x0, x1) - reach, max(x0, x1) + reach
-        loy, hiy = min(y0, y1) - reach, max(y0, y1) + reach
-        loz, hiz = min(z0, z1) - reach, max(z0, z1) + reach
+        lox, hix = (x0 - reach, x1 + reach) if x0 <= x1 else (x1 - reach, x0 + reach)
+        loy, hiy = (y0 - reach, y1 + reach) if y0 <= y1 else (y1 - reach, y0 + reach)
+        loz, hiz = (z0 - reach, z1 + reach) if z0 <= z1 else (z1 - reach, z0 + reach)
         best, best_t = None, math.inf
-        walking = ZombieState.WALKING
-        for z in self.zombies:
+        walking_state = ZombieState.WALKING
+        for z in walking:
             # broad phase: the path's box, grown by the reach, against the axis segment's box
             zx = z.x
             if zx < lox or zx > hix:
                 continue
             zy, zz = z.y, z.z
-            if zy < loy or zy > hiy or zz + top < loz or zz + r > hiz or z.state is not walking:
+            if zy < loy or zy > hiy or zz + top < loz or zz + r > hiz or z.state is not walking_state:
                 continue
             d, t, _ = segment_distance(p0, p1, (zx, zy, zz + r), (zx, zy, zz + top))
             if d < reach and t <= limit and t < best_t:
@@ -796,16 +853,16 @@ class Arena:
 
     # ------------------------------------------------------------ contact
 
-    def _contact(self, events: list[ArenaEvent], dt: float) -> None:
-        """Walking zombies within reach of the player hurt him; at no health the game is over."""
+    def _contact(self, events: list[ArenaEvent], dt: float, walking: list[Zombie]) -> None:
+        """The zombies of ``walking`` (this step's) still walking and within reach of the player
+        hurt him; at no health the game is over."""
         s, p = self.settings, self.player
-        reach2 = s.contact_distance_m ** 2
+        px, py, reach2 = p.x, p.y, s._per_step.reach2
         touching = 0
-        for z in self.zombies:
-            if z.state is ZombieState.WALKING:
-                dx, dy = z.x - p.x, z.y - p.y
-                if dx * dx + dy * dy <= reach2:
-                    touching += 1
+        for z in walking:
+            dx, dy = z.x - px, z.y - py
+            if dx * dx + dy * dy <= reach2 and z.state is ZombieState.WALKING:
+                touching += 1
         if not touching:
             return
         p.health -= touching * s.contact_damage_per_s * dt

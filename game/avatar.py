@@ -157,6 +157,7 @@ class Avatar:
 
     def __post_init__(self) -> None:
         self.bones = skeleton(self.body)
+        self._by_name = {b.name: b for b in self.bones}
         self.local = {b.name: IDENTITY for b in self.bones}
         self.world_rot, self.world_pos = {}, {}
         self._arm_bones = _subtree(self.bones, f"{self.body.side}_upper_arm")
@@ -206,7 +207,7 @@ class Avatar:
 
     def end_of(self, name: str) -> Vec:
         """Where a bone ends: its joint plus its length along its own -z."""
-        bone = next(b for b in self.bones if b.name == name)
+        bone = self._by_name[name]
         return _add(self.world_pos[name], q.rotate(self.world_rot[name], (0.0, 0.0, -bone.length)))
 
     def upper_arm_rotation(self, q_upper: Quat) -> Quat:

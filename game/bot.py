@@ -27,11 +27,6 @@ How it plays:
   throwing.
   Fatigue. Per minute played, its movements slow by ``fatigue_per_min`` and
   its aim noise grows by the same fraction.
-
-The bot's reaction is also what lets the simulator work ahead. The match
-computes sensor samples in blocks up to ``horizon``, and no new movement may
-start before the horizon (:meth:`act` delays it there). A reaction time
-at least as long as a block makes that delay invisible.
 """
 
 from __future__ import annotations
@@ -113,10 +108,9 @@ class Bot:
 
     # ------------------------------------------------------------ the loop
 
-    def act(self, t: float, horizon: float, screen: Screen, arena: Arena,
-            shoulder: Sequence[float]) -> Action:
-        """This frame's keys and walking, at simulated time ``t``; new arm moves start after ``horizon``."""
-        start = max(t + self.skill.reaction_s, horizon)
+    def act(self, t: float, screen: Screen, arena: Arena, shoulder: Sequence[float]) -> Action:
+        """This frame's keys and walking at simulated time ``t``; arm moves start a reaction time later."""
+        start = t + self.skill.reaction_s
         if screen.name == "menu":
             return Action(keys=("return",))
         if screen.name == "calibration":

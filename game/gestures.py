@@ -255,15 +255,17 @@ def usable_sample(arm: ArmState, last_t: float | None) -> Sample | None:
         pointing = np.asarray(arm.pointing, dtype=float)
     except (TypeError, ValueError, AttributeError):
         return None
-    if not (math.isfinite(t) and math.isfinite(elevation) and math.isfinite(flex)):
+    if pointing.shape != (3,):
         return None
-    if pointing.shape != (3,) or not np.all(np.isfinite(pointing)):
+    x, y, z = pointing.tolist()
+    if not all(map(math.isfinite, (t, elevation, flex, x, y, z))):
         return None
-    norm = float(np.linalg.norm(pointing))
+    # np.linalg.norm's own computation for a vector (sqrt of its dot product with
+    # itself, the same bits), without its overhead: this runs once per frame.
+    norm = math.sqrt(pointing.dot(pointing))
     if norm < 1e-9 or (last_t is not None and t < last_t):
         return None
-    unit = pointing / norm
-    return Sample(t, elevation, flex, (float(unit[0]), float(unit[1]), float(unit[2])))
+    return Sample(t, elevation, flex, (x / norm, y / norm, z / norm))
 
 
 def straightening_start(history: Iterable[Sample], release: Sample, lookback_s: float,

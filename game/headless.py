@@ -60,7 +60,8 @@ from .tracking import Tracking  # noqa: E402
 
 FRAME_HZ = 60  # the game's frame rate in simulated time
 RATE_HZ = 200  # the board's default sample rate
-BLOCK = 50  # samples the simulator computes at once (0.25 s: no bot reacts faster)
+BLOCK = 200  # samples the simulator computes ahead at once (1 s)
+STENCIL_S = 0.002  # a sample depends on the motion this close to it (the simulator's differences)
 SIZE = (960, 540)  # the dummy window's size when rendering
 MAX_SETUP_S = 90.0  # menu and calibration take at most this long, or the match is abandoned
 ACC_FS_G, GYR_FS_DPS = 16, 2000  # the firmware's default full scales
@@ -102,13 +103,17 @@ class BoardTally:
 class SimBoard:
     """The board's firmware loop in simulated time: the simulator's samples, quantised and framed.
 
-    Samples are computed a block at a time; :attr:`horizon` is the time up
-    to which they are fixed, so the motion may change only after it.
+    Samples are computed ahead, ``block`` at a time (one call of the
+    simulator for many samples is far cheaper than many calls). When the
+    motion changes (``edits()`` gives the earliest time a change touches, inf
+    for none), the samples from there on are computed again; a change to
+    samples already sent is an error.
     """
 
-    def __init__(self, sim: Simulator, faults: Faults = Faults(), rate_hz: int = RATE_HZ,
-                 block: int = BLOCK) -> None:
+    def __init__(self, sim: Simulator, edits: Callable[[], float] = lambda: math.inf,
+                 faults: Faults = Faults(), rate_hz: int = RATE_HZ, block: int = BLOCK) -> None:
         self.stream = sim.stream(rate_hz)
+        self.edits = edits
         self.rate_hz, self.block = rate_hz, block
         self.faults = faults
         self.injector = FaultInjector(faults)
@@ -118,11 +123,6 @@ class SimBoard:
         self._next = 0  # the next sample index to send
         self._seq = 0
 
-    @property
-    def horizon(self) -> float:
-        """Simulated seconds up to which the samples are computed."""
-        return (self._first + len(self._readings)) / self.rate_hz
-
     def hello(self) -> bytes:
         """The hello frame the firmware sends at power-up."""
         return P.encode_hello(P.Hello(P.PROTOCOL_VERSION, FIRMWARE_VERSION, MPU9250_WHOAMI, AK8963_WHOAMI,
@@ -131,6 +131,7 @@ class SimBoard:
 
     def run_until(self, t: float) -> bytes:
         """The bytes the board sends for every sample due by ``t`` (seconds since power-up)."""
+        self._forget_edited()
         out = bytearray()
         while self._next <= t * self.rate_hz + 1e-9:
             k = self._next
@@ -156,6 +157,16 @@ class SimBoard:
             tally.frames_damaged += 1
             tally.damaged_header_intact += wire[:P.HEADER_SIZE] == frame[:P.HEADER_SIZE]
         return wire
+
+    def _forget_edited(self) -> None:
+        """Drop the samples computed ahead that a change of the motion touches."""
+        edited = self.edits()
+        if edited == math.inf:
+            return
+        k = max(0, math.floor((edited - STENCIL_S) * self.rate_hz))  # the first sample it touches
+        if k < self._next:
+            raise RuntimeError(f"the motion changed at {edited:.4f} s, before samples already sent")
+        del self._readings[max(0, k - self._first):]
 
     def _reading(self, k: int) -> Counts:
         i = k - self._first
@@ -292,13 +303,13 @@ def run_match(config: MatchConfig) -> dict:
     bot = Bot(DIFFICULTIES[config.difficulty], profile, seed)
     sim = Simulator(profile.chain(), Motion(bot.script.root, bot.script.joints, bot.script.pose), profile.sensor_errors(),
                     profile.flex_sensor(), seed=seed)
-    board = SimBoard(sim, replace(config.faults, seed=seed))
+    board = SimBoard(sim, bot.script.take_edits, replace(config.faults, seed=seed))
     wire = PtyWire() if config.pty else MemoryWire()
     seen = Observed()
     keys = {"return": pygame.K_RETURN, "r": pygame.K_r}
     with tempfile.TemporaryDirectory(prefix="energyball-match-") as folder:
         app = App(Preferences(input="keyboard", volume=0.0, music_volume=0.0), config_dir=Path(folder),
-                  seed=seed, size=SIZE)
+                  seed=seed, size=SIZE, draws=config.render)
         game = app.game
         source = WireInput(wire, Tracking(board=maker_calibration(profile, seed)))
         game.use_source(source)
@@ -321,8 +332,7 @@ def run_match(config: MatchConfig) -> dict:
                 frame += 1
                 t = frame / FRAME_HZ
                 view = _screen(screen, Menu, Calibration, Play, GameOver)
-                action = bot.act(t, board.horizon, view, game.arena, game.avatar.world_pos[
-                    f"{game.avatar.body.side}_upper_arm"])
+                action = bot.act(t, view, game.arena, game.avatar.world_pos[f"{game.avatar.body.side}_upper_arm"])
                 walking[0] = action.controls
                 wire.write(board.run_until(t))
                 events = [pygame.event.Event(pygame.KEYDOWN, key=keys[k], mod=0, unicode="") for k in action.keys]

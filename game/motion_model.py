@@ -403,8 +403,15 @@ class Script:
         self.idle_intervals: list[Interval] = []
         self.segments: list[Segment] = []
         self.calibration_intervals: tuple[Interval, Interval] | None = None
+        self._edited_from = math.inf  # the earliest time a move or wave added since take_edits()
 
     # -------------------------------------------------------- helpers
+
+    def take_edits(self) -> float:
+        """The earliest time from which segments added since the last call change the motion
+        (inf: none were). Who computes the motion ahead (the headless match) redoes it from there."""
+        edited, self._edited_from = self._edited_from, math.inf
+        return edited
 
     def _draw_tremor(self, rng: np.random.Generator) -> _Tremor:
         """Two 8-12 Hz components per swing axis, half as much twist (none at tremor 0)."""
@@ -426,12 +433,14 @@ class Script:
         return float(rng.uniform(lo, hi)) / self.profile.speed
 
     def _move(self, t0: float, duration: float, **targets: float) -> float:
+        self._edited_from = min(self._edited_from, t0)
         for channel, value in targets.items():
             self._keyframes.move(channel, t0, t0 + duration, value)
         return t0 + duration
 
     def _wave(self, channel: str, t0: float, t1: float, amplitude: float, freq_hz: float,
               ramp: float, phase: float = 0.0) -> None:
+        self._edited_from = min(self._edited_from, t0)
         self._waves.append(_Wave(channel, t0, t1, amplitude, freq_hz * self.profile.speed, phase, ramp))
 
     def _reach_time(self, rng: np.random.Generator, angle_deg: float) -> float:

@@ -7,18 +7,18 @@ them apart (ARCHITECTURE.md, the data flow).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 Quat = tuple[float, float, float, float]
 
 
-@dataclass(frozen=True)
-class ArmPose:
+class ArmPose(NamedTuple):
     """The upper arm's sensor orientation and the elbow angle at time ``t``.
 
     ``q_upper`` is q_WS of the upper-arm sensor, scalar first, in the tracker's
     world frame (z up; its heading is mapped to the game by the wearing
-    calibration). ``flex_deg`` is the elbow angle, 0 = straight.
+    calibration). ``flex_deg`` is the elbow angle, 0 = straight. A named tuple:
+    the cheapest immutable record to make once per board sample.
     """
 
     q_upper: Quat

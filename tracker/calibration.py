@@ -50,7 +50,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .atomic import atomic_write
-from .lowpass import LowPass2
+from .lowpass import LowPass2, periods
 from .protocol import RawSample
 
 Array = NDArray[np.float64]
@@ -186,14 +186,20 @@ class RestDetector:
                 and -inf < ay < inf and -inf < az < inf and 0.0 < dt < inf):
             s.still_for, s.rest = 0.0, False
             return False
-        if s.gyr_lp is None or abs(dt - s.dt) > 1e-3 * s.dt:
+        n = periods(dt, s.dt) if s.gyr_lp is not None else 0  # > 1: samples were lost
+        if s.gyr_lp is None:
             s.gyr_lp, s.acc_lp, s.dt = LowPass2.design(p.tau, dt), LowPass2.design(p.tau, dt), dt
-        (lx, ly, lz), (mx, my, mz) = s.gyr_lp((gx, gy, gz)), s.acc_lp((ax, ay, az))
+        elif not n:  # a new sample rate: keep what was learnt
+            s.gyr_lp, s.acc_lp, s.dt = s.gyr_lp.redesigned(p.tau, dt), s.acc_lp.redesigned(p.tau, dt), dt
+        n = max(n, 1)
+        (lx, ly, lz), (mx, my, mz) = s.gyr_lp.held((gx, gy, gz), n), s.acc_lp.held((ax, ay, az), n)
         ux, uy, uz = gx - lx, gy - ly, gz - lz  # the gyroscope's deviation from its low-pass
         vx, vy, vz = ax - mx, ay - my, az - mz  # the accelerometer's
+        r = p.gyr_max_rate  # the low-passed rate below it on every axis (finite here: a
+        # non-finite one failed the first test already)
         still = (ux * ux + uy * uy + uz * uz < p.gyr_threshold * p.gyr_threshold
                  and vx * vx + vy * vy + vz * vz < p.acc_threshold * p.acc_threshold
-                 and max(abs(lx), abs(ly), abs(lz)) < p.gyr_max_rate)
+                 and -r < lx < r and -r < ly < r and -r < lz < r)
         s.still_for = s.still_for + dt if still else 0.0
         s.rest = s.still_for >= p.min_duration - 1e-9
         return s.rest

@@ -40,15 +40,18 @@ class LowPass2:
         return cls(b0, 2 * b0, b0, 2.0 * (k * k - 1.0) / norm, (1.0 - math.sqrt(2.0) * k + k * k) / norm)
 
     def redesigned(self, tau: float, dt: float) -> "LowPass2":
-        """The filter for a new sample spacing, settled at this one's last output (if it has run).
-
-        A lost sample makes one gap twice as long; restarting from the next
-        raw input there would let a moving arm's acceleration straight through.
-        """
+        """The filter for a new sample rate, settled at this one's last output (if it has run)."""
         new = LowPass2.design(tau, dt)
         if self.primed:
             new(self.y)
         return new
+
+    def held(self, x: Vec, periods: int) -> Vec:
+        """Filter ``x`` as if it had arrived at each of ``periods`` sample times (zero-order hold):
+        how a sample that comes after lost ones is taken, so the filter's time stays right."""
+        for _ in range(periods - 1):
+            self(x)
+        return self(x)
 
     def __call__(self, x: Vec) -> Vec:
         """Filter one sample; returns (and keeps as ``y``) the output."""
@@ -69,3 +72,10 @@ class LowPass2:
         self.s2 = (b2 * x0 - a2 * y0, b2 * x1 - a2 * y1, b2 * x2 - a2 * y2)
         self.y = (y0, y1, y2)
         return self.y
+
+
+def periods(dt: float, design_dt: float) -> int:
+    """How many sample periods of ``design_dt`` the interval ``dt`` spans when it is a whole
+    number of them (to 0.1%): 1 normally, more after lost samples; 0 when it is not (a new rate)."""
+    n = round(dt / design_dt)
+    return n if n >= 1 and abs(dt - n * design_dt) <= 1e-3 * design_dt * n else 0

@@ -22,7 +22,7 @@ import json
 import math
 import threading
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Iterator
 
@@ -259,7 +259,7 @@ class Replay:
                 if not isinstance(p, (P.RawSample, P.FusedSample)):
                     continue
                 if row is not None:  # clock fields as the live decoder saw them, host time too
-                    p = replace(p, t=row.t, t_us=row.t_us, host_t=row.host_t)
+                    p = p._replace(t=row.t, t_us=row.t_us, host_t=row.host_t)
                 if clock:
                     clock.wait_for(_sample_time(p))
                 yield p

@@ -60,6 +60,17 @@ def test_flying_zombie_comes_down_and_is_removed():
     assert zombie not in arena.zombies
 
 
+def test_a_landed_zombie_stays_marked_gone_until_the_next_step():
+    arena = Arena(NO_WAVES)
+    zombie = arena.add_zombie(0.0, 5.0, speed=0.0)
+    arena.launch((0.0, 0.0, 1.0), (0.0, 1.0, 0.0), 1.0)
+    while zombie.state is not ZombieState.GONE:
+        arena.step(Controls())
+    assert zombie in arena.zombies and zombie.age == 0.0  # the renderer skips it; it goes with the next step
+    arena.step(Controls())
+    assert zombie not in arena.zombies
+
+
 def test_ball_aimed_away_misses_fades_and_goes():
     arena = Arena(NO_WAVES)
     zombie = arena.add_zombie(0.0, 8.0, speed=0.0)

@@ -55,7 +55,7 @@ def test_a_target_behind_is_turned_to_before_any_throw():
     arena.add_zombie(3.0, -12.0, speed=0.5)  # behind, to the right (east)
     bot = _bot()
     bot.play_started = 0.0
-    action = bot.act(1.0, 0.0, Screen("play"), arena, SHOULDER)
+    action = bot.act(1.0, Screen("play"), arena, SHOULDER)
     assert action.controls.turn == -1.0  # a right turn is negative
     assert bot.launches == []
 
@@ -64,7 +64,7 @@ def test_a_target_ahead_gets_a_throw_after_the_reaction_time_toward_it():
     arena = Arena(seed=1)
     arena.add_zombie(0.2, 15.0, speed=0.5)
     bot = _bot("hard", aim_noise_deg=0.0)
-    bot.act(1.0, 0.0, Screen("play"), arena, SHOULDER)
+    bot.act(1.0, Screen("play"), arena, SHOULDER)
     launch = bot.launches[0]
     assert launch.t_straight_start > 1.0 + DIFFICULTIES["hard"].reaction_s
     aim = np.asarray(launch.direction_body)
@@ -80,11 +80,11 @@ def test_fatigue_slows_the_movements():
 def test_calibration_raises_forward_when_asked_then_lowers_and_presses_enter():
     bot = _bot()
     arena = Arena(seed=1)
-    assert bot.act(0.1, 0.0, Screen("menu"), arena, SHOULDER).keys == ("return",)
-    bot.act(1.0, 0.0, Screen("calibration", "down"), arena, SHOULDER)
+    assert bot.act(0.1, Screen("menu"), arena, SHOULDER).keys == ("return",)
+    bot.act(1.0, Screen("calibration", "down"), arena, SHOULDER)
     assert bot.script.now == 0.0  # still: nothing planned
-    bot.act(5.0, 0.0, Screen("calibration", "forward"), arena, SHOULDER)
+    bot.act(5.0, Screen("calibration", "forward"), arena, SHOULDER)
     assert bot.script.pointing_at(7.0) == pytest.approx([0.0, 1.0, 0.0], abs=1e-12)  # level, forward
-    keys = [bot.act(t, 0.0, Screen("calibration", "done"), arena, SHOULDER).keys for t in np.arange(8.0, 11.0, 0.1)]
+    keys = [bot.act(t, Screen("calibration", "done"), arena, SHOULDER).keys for t in np.arange(8.0, 11.0, 0.1)]
     assert keys.count(("return",)) == 1
     assert bot.script.pointing_at(11.0) == pytest.approx([0.0, 0.0, -1.0], abs=1e-12)  # down

@@ -107,3 +107,37 @@ def test_a_broken_profile_file_is_one_clear_line(tmp_path):
     out = subprocess.run([sys.executable, "-m", "game", "--headless", "--profile", str(bad)],
                          capture_output=True, text=True, timeout=60)
     assert out.returncode == 1 and "not a player profile" in out.stderr and "Traceback" not in out.stderr
+
+
+def _board_bytes(edit_after: float | None, gesture: bool = True) -> bytes:
+    """A board on a script that gets a gesture from 2.3 s: planned before the start, or only after
+    ``edit_after`` seconds were sent (the samples to 3 s are computed ahead by then, so those the
+    gesture touches must be computed again)."""
+    from game.headless import SimBoard
+    from game.motion_model import PlayerProfile, Script
+    from tracker.sim import Motion, Simulator
+    profile = PlayerProfile()
+    script = Script(profile, seed=9)
+    sim = Simulator(profile.chain(), Motion(script.root, script.joints, script.pose), profile.sensor_errors(),
+                    profile.flex_sensor(), seed=9)
+    board = SimBoard(sim, script.take_edits)
+
+    def plan() -> None:
+        if gesture:
+            script.wait_until(2.3)
+            script.gesture([(10.0, 95.0)])
+
+    out = b""
+    if edit_after is None:
+        plan()
+    else:
+        out += board.run_until(edit_after)
+        plan()
+    return out + board.run_until(8.0)
+
+
+def test_samples_computed_ahead_are_redone_when_the_motion_changes():
+    assert _board_bytes(2.05) == _board_bytes(None)  # as if the gesture had been known all along
+    assert _board_bytes(2.05) != _board_bytes(2.05, gesture=False)  # and the gesture did change them
+    with pytest.raises(RuntimeError, match="before samples already sent"):
+        _board_bytes(2.9)

@@ -398,3 +398,21 @@ def test_load_or_default_gives_defaults_and_a_notice(tmp_path):
     C.save(calibrated(), tmp_path)
     cal, notice = C.load_or_default("fw-1.0_alice", tmp_path)
     assert cal.to_json() == calibrated().to_json() and "loaded" in notice
+
+
+def test_lost_samples_neither_fake_rest_in_motion_nor_end_rest():
+    # Every 20th sample lost (dt twice as long there): the swing is still motion throughout,
+    # and the still stretches are still rest. Restarting the low-passes at each gap (as the
+    # detector once did) made every gap look still for a moment and forgot the learnt mean.
+    rng = np.random.default_rng(7)
+    gyr, acc = join(still(rng, 2.0), swinging(rng, 5.0), still(rng, 4.0))
+    keep = np.arange(len(gyr)) % 20 != 7
+    t = times(len(gyr))[keep]
+    detector = C.RestDetector()
+    rest = np.array([detector.update(g, a, dt) for g, a, dt in
+                     zip(gyr[keep], acc[keep], np.diff(t, prepend=-DT))])
+    moving = (t > 2.1) & (t < 7.0)
+    assert not rest[moving].any()
+    assert rest[(t > 1.6) & (t < 2.0)].all() and rest[t > 7.0 + 1.5 + 4 * C.RestParams().tau].all()
+    still_gyr = gyr[keep][rest & (t > 9.0)]
+    assert detector.gyr_lp == pytest.approx(still_gyr.mean(axis=0), abs=0.2 * DEG)

@@ -28,3 +28,16 @@ def test_filtering_matches_lfilter_started_settled_at_the_first_input():
                             for i in range(3)])
     assert got == pytest.approx(want, abs=1e-9)
     assert lp.y == tuple(got[-1])
+
+
+def test_a_sample_after_lost_ones_counts_for_each_period_it_stands_for():
+    from tracker.lowpass import periods
+    assert periods(0.005, 0.005) == 1 and periods(0.0150001, 0.005) == 3
+    assert periods(0.0075, 0.005) == 0 and periods(0.001, 0.005) == 0  # a new rate, not a loss
+    a, b = LowPass2.design(0.5, 0.005), LowPass2.design(0.5, 0.005)
+    for x in ((1.0, 2.0, 3.0), (2.0, 2.0, 2.0)):
+        a(x), b(x)
+    held = a.held((5.0, 0.0, -1.0), 3)
+    for _ in range(3):
+        each = b((5.0, 0.0, -1.0))
+    assert held == each

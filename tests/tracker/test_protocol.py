@@ -8,7 +8,6 @@ Every hypothesis test is derandomised, so the suite is deterministic.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import random
 from pathlib import Path
@@ -50,7 +49,7 @@ def crc16_reference(data: bytes) -> int:
 def strip(p: P.Packet) -> P.Packet:
     """A packet without the fields the decoder derives (unwrapped t, host time)."""
     if isinstance(p, (P.RawSample, P.FusedSample)):
-        return dataclasses.replace(p, t=0.0, host_t=None)
+        return p._replace(t=0.0, host_t=None)
     return p
 
 

@@ -26,7 +26,7 @@ import math
 from dataclasses import dataclass
 
 from ..calibration import RestDetector, RestParams
-from ..lowpass import LowPass2
+from ..lowpass import LowPass2, periods
 from .base import Filter
 from .qmath import (IDENTITY, Quat, Vec, about_z, from_rotvec, integrate, mul, normalize, rotate,
                     rotate_inverse, tilt_to_up)
@@ -90,8 +90,10 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
 
     def _step(self, gyr: Vec, acc: Vec | None, mag: Vec | None, dt: float) -> Quat:
         s, p = self._state, self.params
-        if s.acc_lp is None or abs(dt - s.dt) > 1e-3 * s.dt:
+        n = periods(dt, s.dt) if s.acc_lp is not None else 0  # > 1: samples were lost
+        if not n:  # the first sample, or a new sample rate
             self._design(dt)
+            n = 1
         s.t += dt
         if acc is not None:
             self._detect_rest(gyr, acc, dt)
@@ -100,7 +102,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         s.q_gyr = normalize(integrate(s.q_gyr, (gyr[0] - b[0], gyr[1] - b[1], gyr[2] - b[2]), dt))
         # 2. Inclination from the accelerometer low-passed in frame I (VQF sec. 3.2),
         #    and the bias from the correction while in motion (Mahony eq. 32).
-        tilt = self._correct_inclination(acc) if acc is not None else None
+        tilt = self._correct_inclination(acc, n) if acc is not None else None
         q6 = mul(s.q_inc, s.q_gyr)
         if tilt is not None and not self.flags.rest and s.t > p.startup_t:
             self._learn_bias_in_motion(q6, tilt[0] / dt, tilt[1] / dt, dt)
@@ -126,17 +128,21 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
     def _clamp(self, x: float, y: float, z: float) -> Vec:
         """The bias (x, y, z) limited to +-bias_max per axis."""
         m = self.params.bias_max
-        return (max(-m, min(m, x)), max(-m, min(m, y)), max(-m, min(m, z)))
+        # max(-m, min(m, .)) per axis (NaN included) as conditionals: no builtin calls.
+        x, y, z = (x if x < m else m), (y if y < m else m), (z if z < m else m)
+        return (x if x > -m else -m), (y if y > -m else -m), (z if z > -m else -m)
 
     # ------------------------------------------------------------ inclination
 
-    def _correct_inclination(self, acc: Vec) -> tuple[float, float] | None:
+    def _correct_inclination(self, acc: Vec, periods: int) -> tuple[float, float] | None:
         """Turn q_inc so the low-passed accelerometer points up; the turn's (x, y) rotation vector.
 
-        None while there is no gravity yet.
+        ``periods``: the sample periods since the last sample (more than 1 after lost
+        ones, which the low-pass takes as this sample held). None while there is no
+        gravity yet.
         """
         s = self._state
-        a_i = s.acc_lp(rotate(s.q_gyr, acc))
+        a_i = s.acc_lp.held(rotate(s.q_gyr, acc), periods)
         ax, ay, az = rotate(s.q_inc, a_i)
         n = math.sqrt(ax * ax + ay * ay + az * az)
         if n < 1e-6:
