@@ -23,8 +23,9 @@ How it plays:
   angle gets Gaussian noise. With reloads, one raise throws at the next
   targets too.
   Walking. When a zombie would reach it within ``flee_s``, it walks away from
-  the near zombies and back toward the middle of the arena, while it keeps
-  throwing.
+  the near zombies and back toward the middle of the arena until it is a
+  third further clear. It does not walk during a throw (which would swing the aim
+  off), unless a zombie is about to strike.
   Fatigue. Per minute played, its movements slow by ``fatigue_per_min`` and
   its aim noise grows by the same fraction.
 """
@@ -48,6 +49,8 @@ CENTRE_PULL = 0.6  # beyond this fraction of the arena's radius the fleeing bot 
 THROW_S = 2.7  # the typical time from the decision to a launch at speed 1 (reach, load, spin)
 RELOAD_S = 1.3  # and from one launch to the next of the same raise
 IDLE_S = (1.0, 2.5)  # fidgeting between waves, seconds
+FLEE_UNTIL = 1.3  # a fleeing bot walks on until the nearest zombie is this many times flee_s away
+STRIKE_S = 0.6  # a zombie this close to contact makes the bot walk even mid-throw
 FORGET_S = 1.0  # the motion script keeps this much past (the simulator never looks further back)
 
 
@@ -101,6 +104,7 @@ class Bot:
         self.play_started: float | None = None
         self._step_seen = ""  # the calibration step the bot last reacted to
         self._lowered_at: float | None = None  # when the arm is back down after calibrating
+        self.fleeing = False
 
     @property
     def launches(self) -> list[TrueLaunch]:
@@ -139,16 +143,22 @@ class Bot:
     def _play(self, t: float, start: float, arena: Arena, shoulder: Sequence[float]) -> Action:
         player = arena.player
         walking = arena.alive_zombies
-        controls = self._flee(player, walking, arena)
-        if t < self.script.now:  # the arm is busy with what was planned
-            return Action(controls=controls)
+        busy = t < self.script.now  # the arm is on what was planned
+        soonest = min((self._time_to_contact(z, player, arena) for z in walking), default=math.inf)
+        # Walk away from a close zombie until well clear (hysteresis); mid-throw only when it is
+        # about to strike, since walking swings a throw's aim off its target.
+        self.fleeing = soonest < (FLEE_UNTIL * self.skill.flee_s if self.fleeing else self.skill.flee_s)
+        if self.fleeing and (not busy or soonest < STRIKE_S):
+            return Action(controls=self._flee(player, walking, arena.settings.arena_radius_m))
+        if busy:
+            return Action()
         minutes = (t - (self.play_started or t)) / 60.0
         self._tire(minutes)
         self.script.forget_before(t - FORGET_S)
         if not walking:
             self.script.wait_until(start)
             self.script.idle(float(self.rng.uniform(*IDLE_S)))
-            return Action(controls=controls)
+            return Action()
         threats = sorted(walking, key=lambda z: self._time_to_contact(z, player, arena))
         ahead = (start - t) + THROW_S / self.script.profile.speed
         aims = []
@@ -160,10 +170,10 @@ class Bot:
             aims.append((az + float(self.rng.normal(0.0, noise)), el + float(self.rng.normal(0.0, noise))))
         if not aims:  # turn toward the threat first (a positive turn is to the left)
             azimuth, _ = self._aim(threats[0], player, shoulder, 0.0)
-            return Action(controls=replace(controls, turn=-math.copysign(1.0, azimuth)))
+            return Action(controls=Controls(turn=-math.copysign(1.0, azimuth)))
         self.script.wait_until(start)
         self.script.gesture(aims)
-        return Action(controls=controls)
+        return Action()
 
     # ------------------------------------------------------------ judgement
 
@@ -195,10 +205,9 @@ class Bot:
         elevation = 90.0 + math.degrees(math.atan2(dz, math.hypot(right, forward)))
         return azimuth, elevation
 
-    def _flee(self, player: Player, walking: list[Zombie], arena: Arena) -> Controls:
-        """Walk away from near zombies (and inward near the edge) when one is about to reach the bot."""
-        if not walking or min(self._time_to_contact(z, player, arena) for z in walking) > self.skill.flee_s:
-            return Controls()
+    @staticmethod
+    def _flee(player: Player, walking: list[Zombie], arena_radius_m: float) -> Controls:
+        """Walk away from the near zombies, and inward near the arena's edge."""
         wx = wy = 0.0
         for z in walking:
             dx, dy = player.x - z.x, player.y - z.y
@@ -206,7 +215,7 @@ class Bot:
             if d2 < NEAR_M * NEAR_M:
                 wx, wy = wx + dx / max(d2, 0.01), wy + dy / max(d2, 0.01)
         r = math.hypot(player.x, player.y)
-        edge = arena.settings.arena_radius_m * CENTRE_PULL
+        edge = arena_radius_m * CENTRE_PULL
         if r > edge:
             push = math.hypot(wx, wy) or 1.0
             wx, wy = wx - player.x / r * push, wy - player.y / r * push

@@ -63,6 +63,7 @@ RATE_HZ = 200  # the board's default sample rate
 BLOCK = 200  # samples the simulator computes ahead at once (1 s)
 STENCIL_S = 0.002  # a sample depends on the motion this close to it (the simulator's differences)
 SIZE = (960, 540)  # the dummy window's size when rendering
+PROGRESS_S = 60  # simulated seconds between progress lines within a match (one worker)
 MAX_SETUP_S = 90.0  # menu and calibration take at most this long, or the match is abandoned
 ACC_FS_G, GYR_FS_DPS = 16, 2000  # the firmware's default full scales
 Counts = tuple[tuple[int, ...], tuple[int, ...], tuple[int, ...], int]  # acc, gyr, mag, flex ADC
@@ -291,8 +292,11 @@ def _rss_mb() -> float:
         return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e6
 
 
-def run_match(config: MatchConfig) -> dict:
-    """Play one match; its report (``timing`` holds the wall-clock figures)."""
+def run_match(config: MatchConfig, progress: Callable[[str], None] | None = None) -> dict:
+    """Play one match; its report (``timing`` holds the wall-clock figures).
+
+    ``progress`` hears how the match goes every ``PROGRESS_S`` of play.
+    """
     import pygame
 
     from .app import App, Calibration, GameOver, Menu, Play
@@ -317,7 +321,7 @@ def run_match(config: MatchConfig) -> dict:
         game.walker = lambda: walking[0]
         game.on_launch = lambda event: seen.launches.append(_body_frame(event, game.avatar.body_yaw))
         wire.write(board.hello())
-        frame, t = 0, 0.0
+        frame, t, next_report = 0, 0.0, float(PROGRESS_S)
         try:
             while True:
                 screen = app.screen
@@ -329,6 +333,11 @@ def run_match(config: MatchConfig) -> dict:
                     break
                 if playing >= 60.0 and len(seen.rss_mb) == 0:
                     seen.rss_mb.append(_rss_mb())
+                if progress and playing >= next_report:
+                    next_report += PROGRESS_S
+                    progress(f"  seed {config.seed}: {playing:.0f} s played, score {game.arena.score}, "
+                             f"wave {game.arena.wave}, health {game.arena.player.health:.0f}, "
+                             f"{t / (time.perf_counter() - wall0):.0f}x")
                 frame += 1
                 t = frame / FRAME_HZ
                 view = _screen(screen, Menu, Calibration, Play, GameOver)
@@ -403,7 +412,7 @@ def run_matches(configs: list[MatchConfig], workers: int = 1,
                 _progress(progress, report, len(configs), len(reports))
     else:
         for config in configs:
-            reports.append(run_match(config))
+            reports.append(run_match(config, progress))
             _progress(progress, reports[-1], len(configs), len(reports))
     wall = time.perf_counter() - wall0
     return {"matches": reports, "summary": summarise(reports, wall)}

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from game.arena import Arena
+from game.arena_model import Controls
 from game.bot import DIFFICULTIES, Bot, Screen, Skill
 from game.motion_model import direction
 
@@ -40,14 +41,22 @@ def test_aim_turns_with_the_body_and_leads_a_walking_zombie():
     assert el_ahead < el_now
 
 
-def test_a_close_zombie_makes_it_walk_away_and_a_far_one_does_not():
+def test_a_close_zombie_makes_it_walk_away_until_well_clear_and_not_mid_throw():
     arena = Arena(seed=1)
     bot = _bot()
-    far = arena.add_zombie(0.0, 15.0, speed=1.0)
-    assert bot._flee(arena.player, [far], arena).forward == 0.0
+    bot.play_started = 0.0
+    arena.add_zombie(0.0, 15.0, speed=1.0)
+    assert bot.act(1.0, Screen("play"), arena, SHOULDER).controls.forward == 0.0  # far: it throws
+    assert bot.launches and bot.script.now > 2.0
     near = arena.add_zombie(0.0, 2.0, speed=1.0)  # straight ahead, 1.1 s from contact
-    c = bot._flee(arena.player, [far, near], arena)
+    assert bot.act(1.1, Screen("play"), arena, SHOULDER).controls == Controls()  # mid-throw: stays
+    near.y = 1.4  # 0.5 s from contact: about to strike, so it walks even mid-throw
+    c = bot.act(1.2, Screen("play"), arena, SHOULDER).controls
     assert c.forward == pytest.approx(-1.0) and c.strafe == pytest.approx(0.0, abs=1e-12)  # backs off south
+    near.y = 4.0  # 3.1 s away: under 1.3 flee_s (3.25 s), so it keeps walking once the arm is free
+    assert bot.act(bot.script.now + 0.1, Screen("play"), arena, SHOULDER).controls.forward < 0.0
+    near.y = 7.0  # 6.1 s: clear
+    assert bot.act(bot.script.now + 0.2, Screen("play"), arena, SHOULDER).controls.forward == 0.0
 
 
 def test_a_target_behind_is_turned_to_before_any_throw():
