@@ -22,7 +22,7 @@ How it plays:
   players lead a walking zombie to where it will be at the launch. Each
   angle gets Gaussian noise. With reloads, one raise throws at the next
   targets too.
-  Walking. When a zombie would reach it within ``flee_s``, it walks away from
+  Walking. When a zombie would reach it within ``FLEE_S`` (2.5 s), it walks away from
   the near zombies and back toward the middle of the arena until it is a
   third further clear. It does not walk during a throw (which would swing the aim
   off), unless a zombie is about to strike.
@@ -49,7 +49,8 @@ CENTRE_PULL = 0.6  # beyond this fraction of the arena's radius the fleeing bot 
 THROW_S = 2.7  # the typical time from the decision to a launch at speed 1 (reach, load, spin)
 RELOAD_S = 1.3  # and from one launch to the next of the same raise
 IDLE_S = (1.0, 2.5)  # fidgeting between waves, seconds
-FLEE_UNTIL = 1.3  # a fleeing bot walks on until the nearest zombie is this many times flee_s away
+FLEE_S = 2.5  # the bot walks away when a zombie would reach it within this time
+FLEE_UNTIL = 1.3  # and walks on until the nearest zombie is this many times FLEE_S away
 STRIKE_S = 0.6  # a zombie this close to contact makes the bot walk even mid-throw
 FORGET_S = 1.0  # the motion script keeps this much past (the simulator never looks further back)
 
@@ -63,17 +64,16 @@ class Skill:
     speed: float  # movement speed factor (times the profile's)
     fatigue_per_min: float  # per minute played: movements slow and aim noise grows by this fraction
     leads_targets: bool  # aims where a walking zombie will be at the launch
-    flee_s: float  # walks away when a zombie would reach it within this time
     reloads: int  # extra launches at further targets per raise of the arm
 
 
 DIFFICULTIES: dict[str, Skill] = {
     "easy": Skill(reaction_s=0.55, aim_noise_deg=2.5, speed=0.8, fatigue_per_min=0.05,
-                  leads_targets=False, flee_s=1.5, reloads=0),
+                  leads_targets=False, reloads=0),
     "normal": Skill(reaction_s=0.40, aim_noise_deg=1.2, speed=1.0, fatigue_per_min=0.03,
-                    leads_targets=True, flee_s=2.5, reloads=1),
+                    leads_targets=True, reloads=1),
     "hard": Skill(reaction_s=0.28, aim_noise_deg=0.5, speed=1.3, fatigue_per_min=0.02,
-                  leads_targets=True, flee_s=3.5, reloads=2),
+                  leads_targets=True, reloads=2),
 }
 
 
@@ -147,7 +147,7 @@ class Bot:
         soonest = min((self._time_to_contact(z, player, arena) for z in walking), default=math.inf)
         # Walk away from a close zombie until well clear (hysteresis); mid-throw only when it is
         # about to strike, since walking swings a throw's aim off its target.
-        self.fleeing = soonest < (FLEE_UNTIL * self.skill.flee_s if self.fleeing else self.skill.flee_s)
+        self.fleeing = soonest < (FLEE_UNTIL * FLEE_S if self.fleeing else FLEE_S)
         if self.fleeing and (not busy or soonest < STRIKE_S):
             return Action(controls=self._flee(player, walking, arena.settings.arena_radius_m))
         if busy:

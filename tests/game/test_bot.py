@@ -53,7 +53,7 @@ def test_a_close_zombie_makes_it_walk_away_until_well_clear_and_not_mid_throw():
     near.y = 1.4  # 0.5 s from contact: about to strike, so it walks even mid-throw
     c = bot.act(1.2, Screen("play"), arena, SHOULDER).controls
     assert c.forward == pytest.approx(-1.0) and c.strafe == pytest.approx(0.0, abs=1e-12)  # backs off south
-    near.y = 4.0  # 3.1 s away: under 1.3 flee_s (3.25 s), so it keeps walking once the arm is free
+    near.y = 4.0  # 3.1 s away: under 1.3 FLEE_S (3.25 s), so it keeps walking once the arm is free
     assert bot.act(bot.script.now + 0.1, Screen("play"), arena, SHOULDER).controls.forward < 0.0
     near.y = 7.0  # 6.1 s: clear
     assert bot.act(bot.script.now + 0.2, Screen("play"), arena, SHOULDER).controls.forward == 0.0
