@@ -19,13 +19,16 @@ REPO = Path(__file__).resolve().parents[2]
 FIRMWARE = REPO / "firmware"
 
 
-def require_tool(tool: str, why: str) -> None:
-    """Skip without ``tool``, except under CI (CI=true), which installs it and must fail instead."""
-    if shutil.which(tool) is None:
-        message = f"{tool} is not installed ({why})"
+def require(ok: bool, message: str) -> None:
+    """Skip unless ``ok``, except under CI (CI=true), which installs everything and must fail."""
+    if not ok:
         if os.environ.get("CI") == "true":
             pytest.fail(f"{message}; CI must install it")
         pytest.skip(message)
+
+
+def require_tool(tool: str, why: str) -> None:
+    require(shutil.which(tool) is not None, f"{tool} is not installed ({why})")
 
 
 def make(*args: str) -> subprocess.CompletedProcess:

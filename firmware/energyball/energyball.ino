@@ -1,0 +1,390 @@
+/* EnergyBall arm tracker firmware: Adafruit Metro Mini (ATmega328P, 16 MHz), an
+ * MPU-9250 on I2C and a flex sensor through an op-amp on A0 (seed 000, Zhu & Shi,
+ * "Motion Control in VR", sec. 4), streaming the wire protocol of
+ * firmware/PROTOCOL.md at 115200 baud: RAW frames (sensor counts), or FUSED frames
+ * (the paper's complementary filter, sec. 3, run on the board, and the flex angle
+ * of eq. 3). Built with -DEB_LEGACY_TEXT=1 (make LEGACY_TEXT=1) it prints the
+ * paper's text lines at 9600 baud instead (PROTOCOL.md sec. 10).
+ *
+ * Timing: Timer1 raises an interrupt at each sample instant (sampler.cpp); the
+ * loop serves host commands, takes the samples due, and sends status. Nothing
+ * waits on delay() once running, and every I2C transfer has a timeout.
+ *
+ * Phase markers, for cycle counting by the AVR simulator harness (firmware/sim/):
+ * PORTB pins written directly (one sbi/cbi instruction each),
+ *   PB0 (D8)  high while reading the sensors (I2C and ADC),
+ *   PB1 (D9)  high while computing and encoding (filter, framing),
+ *   PB2 (D10) high while handing the frame's bytes to Serial.
+ * D13 (PB5) is the status LED: steady while measuring the gyroscope bias at boot
+ * (keep still), a 50 ms flash a second while streaming, a slow blink when stopped,
+ * a fast 5 Hz blink while the IMU is missing or failing.
+ */
+#include <avr/eeprom.h>
+
+#include "imu.h"
+#include "sampler.h"
+#include "src/eb_bias.h"
+#include "src/eb_board.h"
+#include "src/eb_clock.h"
+#include "src/eb_filter.h"
+#include "src/eb_protocol.h"
+#include "src/eb_sensors.h"
+#include "src/eb_text.h"
+
+#define PHASE_READ _BV(PB0)
+#define PHASE_COMPUTE _BV(PB1)
+#define PHASE_SEND _BV(PB2)
+#define LED_PIN_MASK _BV(PB5)
+#define PHASE_ON(mask) (PORTB |= (mask))
+#define PHASE_OFF(mask) (PORTB &= (uint8_t)~(mask))
+
+#if EB_LEGACY_TEXT
+static const uint32_t BAUD = 9600;
+static const uint16_t LEGACY_LINES_HZ = 20; /* a 40-byte line at 9600 baud: 83% of the link */
+#else
+static const uint32_t BAUD = 115200;
+#endif
+static const uint8_t FLEX_PIN = A0;
+static const uint8_t FLEX_OVERSAMPLE = 4; /* 4 conversions of 104 us, averaged */
+static const uint8_t I2C_FAILURES_TO_LOSE_IMU = 10; /* consecutive, then re-initialise */
+static uint8_t *const BIAS_EEPROM = (uint8_t *)0;
+
+/* One sample as read. */
+struct Reading {
+    int16_t acc[3], gyr[3];
+    uint16_t flex_sum; /* FLEX_OVERSAMPLE 10-bit conversions */
+};
+
+static eb_state_t state;
+static eb_grid_t grid; /* stamp of the next due sample */
+static eb_filter_t filter;
+static Imu imu;
+static int16_t gyro_bias[3]; /* counts, for the on-board filter only: RAW frames are as read */
+static float sample_dt; /* s */
+static uint16_t errors; /* EB_ERR_* */
+static bool imu_ready;
+static uint8_t i2c_failures;
+static eb_rail_t flex_rail;
+static uint32_t clock_epoch_us; /* micros() at power-up: device time 0 */
+static uint32_t last_status_ms;
+#if EB_LEGACY_TEXT
+static uint16_t legacy_countdown;
+#else
+static eb_parser_t parser;
+#endif
+
+static uint32_t device_us()
+{
+    return micros() - clock_epoch_us;
+}
+
+/* ------------------------------------------------------------ sending */
+
+static void send_reply(const uint8_t *frame, size_t n)
+{
+#if !EB_LEGACY_TEXT
+    Serial.write(frame, n); /* replies wait for room in the TX buffer */
+#else
+    (void)frame;
+    (void)n;
+#endif
+}
+
+/* Sample frames never wait: one the TX buffer cannot take now is lost on the wire
+ * (a seq gap to the host, PROTOCOL.md 7.5). */
+static void send_sample(const uint8_t *frame, size_t n)
+{
+    PHASE_ON(PHASE_SEND);
+    if ((size_t)Serial.availableForWrite() >= n)
+        Serial.write(frame, n);
+    PHASE_OFF(PHASE_SEND);
+}
+
+static void send_hello()
+{
+    eb_hello_t h = {EB_FW_MAJOR, EB_FW_MINOR, EB_FW_PATCH, imu.whoami, imu.mag_whoami,
+                    state.rate_hz, state.mode, state.streaming, EB_ACC_FS, EB_GYR_FS, errors};
+    uint8_t frame[EB_FRAME_SIZE(EB_HELLO_LEN)];
+    send_reply(frame, eb_encode_hello(frame, &h));
+    errors &= (uint16_t)~EB_EVENT_BITS; /* events are reported once */
+    last_status_ms = millis();
+}
+
+/* ------------------------------------------------------------ sensors */
+
+/* Seed 002, eq. 2's idea at boot: if the gyroscope is still, its mean is the bias,
+ * kept in EEPROM; a board moved during boot reuses the stored one. */
+static void measure_gyro_bias()
+{
+    eb_still_t still;
+    eb_still_init(&still);
+    PORTB |= LED_PIN_MASK; /* steady: keep still */
+    for (uint8_t i = 0; i < EB_BIAS_SAMPLES; i++) {
+        int16_t acc[3], gyr[3];
+        if (!imu_read(acc, gyr))
+            break;
+        eb_still_add(&still, gyr, acc);
+        delayMicroseconds(1000); /* the MPU's internal rate: a new sample each ms */
+    }
+    uint8_t record[EB_BIAS_RECORD_SIZE];
+    if (eb_still_is_still(&still)) {
+        eb_still_mean(&still, gyro_bias);
+        eb_bias_pack(record, gyro_bias);
+        eeprom_update_block(record, BIAS_EEPROM, sizeof record);
+    } else {
+        eeprom_read_block(record, BIAS_EEPROM, sizeof record);
+        if (!eb_bias_unpack(record, gyro_bias))
+            gyro_bias[0] = gyro_bias[1] = gyro_bias[2] = 0;
+    }
+}
+
+static void bring_up_imu()
+{
+    uint16_t found = imu_init(imu, state.rate_hz);
+    errors = (uint16_t)((errors & ~(EB_ERR_IMU_MISSING | EB_ERR_MAG_MISSING)) | found);
+    imu_ready = !(found & (EB_ERR_IMU_MISSING | EB_ERR_I2C_FAILURE));
+    i2c_failures = 0;
+    if (imu_ready)
+        measure_gyro_bias();
+}
+
+static void note_i2c(bool ok)
+{
+    if (ok) {
+        i2c_failures = 0;
+        return;
+    }
+    errors |= EB_ERR_I2C_FAILURE;
+    if (++i2c_failures >= I2C_FAILURES_TO_LOSE_IMU) {
+        imu_ready = false; /* retried once a second from the loop */
+        errors |= EB_ERR_IMU_MISSING;
+    }
+}
+
+static bool read_sensors(Reading &r)
+{
+    PHASE_ON(PHASE_READ);
+    bool ok = imu_read(r.acc, r.gyr);
+    note_i2c(ok);
+    if (ok && imu.mag_whoami)
+        note_i2c(imu_read_mag(imu));
+    r.flex_sum = 0;
+    for (uint8_t i = 0; i < FLEX_OVERSAMPLE; i++)
+        r.flex_sum += (uint16_t)analogRead(FLEX_PIN);
+    PHASE_OFF(PHASE_READ);
+    return ok;
+}
+
+static uint16_t flex_adc(const Reading &r)
+{
+    return (uint16_t)((r.flex_sum + FLEX_OVERSAMPLE / 2) / FLEX_OVERSAMPLE);
+}
+
+/* ------------------------------------------------------------ samples */
+
+static void update_filter(const Reading &r)
+{
+    float gyr[3], acc[3];
+    for (uint8_t i = 0; i < 3; i++) {
+        gyr[i] = eb_gyr_rad_s((int16_t)(r.gyr[i] - gyro_bias[i]), EB_GYR_FS);
+        acc[i] = eb_acc_m_s2(r.acc[i], EB_ACC_FS);
+    }
+    eb_filter_update(&filter, gyr, acc, sample_dt);
+}
+
+static float flex_deg(const Reading &r)
+{
+    return eb_flex_deg((float)r.flex_sum / FLEX_OVERSAMPLE);
+}
+
+#if EB_LEGACY_TEXT
+static void emit_sample(const Reading &r, uint32_t)
+{
+    PHASE_ON(PHASE_COMPUTE);
+    update_filter(r);
+    bool line_due = --legacy_countdown == 0;
+    char line[EB_TEXT_LINE_MAX];
+    size_t n = 0;
+    if (line_due) {
+        legacy_countdown = state.rate_hz / LEGACY_LINES_HZ;
+        n = eb_format_text_line(line, filter.q, flex_deg(r));
+    }
+    PHASE_OFF(PHASE_COMPUTE);
+    if (line_due)
+        send_sample((const uint8_t *)line, n);
+}
+#else
+static void emit_sample(const Reading &r, uint32_t t_us)
+{
+    uint8_t frame[EB_MAX_BOARD_FRAME];
+    size_t n;
+    PHASE_ON(PHASE_COMPUTE);
+    if (state.mode == EB_MODE_FUSED) {
+        update_filter(r);
+        eb_fused_t s = {t_us, state.seq, {filter.q[0], filter.q[1], filter.q[2], filter.q[3]},
+                        flex_deg(r)};
+        n = eb_encode_fused(frame, &s);
+    } else {
+        eb_raw_t s = {t_us, state.seq, {r.acc[0], r.acc[1], r.acc[2]}, {r.gyr[0], r.gyr[1], r.gyr[2]},
+                      {imu.mag.mag[0], imu.mag.mag[1], imu.mag.mag[2]}, flex_adc(r), EB_ACC_FS,
+                      EB_GYR_FS, imu.mag_seen, imu.mag_seen && imu.mag.overflow};
+        n = eb_encode_raw(frame, &s);
+    }
+    PHASE_OFF(PHASE_COMPUTE);
+    send_sample(frame, n);
+}
+#endif
+
+static void take_sample(uint32_t t_us)
+{
+    Reading r;
+    if (!read_sensors(r))
+        return; /* not taken, not numbered: the host sees the time jump */
+    if (eb_rail_update(&flex_rail, flex_adc(r), state.rate_hz))
+        errors |= EB_ERR_FLEX_RAIL;
+    else
+        errors &= (uint16_t)~EB_ERR_FLEX_RAIL;
+    emit_sample(r, t_us);
+    state.seq++;
+}
+
+/* PROTOCOL.md 7.4: of the samples due, the most recent 50 ms are taken back to
+ * back; older ones are skipped (and OVERRUN reported). Not streaming, or without
+ * an IMU, the grid moves on and nothing is numbered. */
+static void run_due_samples()
+{
+    uint16_t n = sampler_take();
+    uint16_t limit = eb_catch_up_limit(state.rate_hz);
+    if (n > limit) {
+        errors |= EB_ERR_OVERRUN;
+        for (; n > limit; n--)
+            eb_grid_advance(&grid);
+    }
+    for (; n; n--) {
+        if (state.streaming && imu_ready)
+            take_sample(grid.t_us);
+        eb_grid_advance(&grid);
+    }
+}
+
+/* Sample k of the current rate's grid is the next one; the timer's first
+ * interrupt falls on it (or it is due at once if that instant has passed). */
+static void start_sampling(uint32_t k)
+{
+    eb_grid_set(&grid, state.rate_hz, k);
+    sample_dt = 1.0f / state.rate_hz;
+    eb_grid_t next = grid;
+    eb_grid_advance(&next);
+    int32_t wait = (int32_t)(grid.t_us - device_us());
+    if (wait > 0) {
+        sampler_start(state.rate_hz, (uint32_t)wait, false);
+    } else {
+        wait = (int32_t)(next.t_us - device_us());
+        sampler_start(state.rate_hz, wait > 0 ? (uint32_t)wait : 1u, true);
+    }
+}
+
+/* PROTOCOL.md 7.1: seq 0, clock from 0, boot configuration, HELLO, stream. */
+static void power_up()
+{
+    eb_state_power_up(&state);
+    eb_filter_init(&filter, EB_FILTER_ALPHA);
+    if (imu_ready)
+        imu_set_rate(state.rate_hz);
+#if EB_LEGACY_TEXT
+    legacy_countdown = 1;
+#endif
+    clock_epoch_us = micros();
+    start_sampling(0);
+    send_hello();
+}
+
+/* ------------------------------------------------------------ commands */
+
+#if !EB_LEGACY_TEXT
+static void execute(const eb_command_t &c)
+{
+    eb_reply_t r = eb_execute(&state, &c);
+    if (r.ack) {
+        uint8_t frame[EB_FRAME_SIZE(EB_ACK_LEN)];
+        send_reply(frame, eb_encode_ack(frame, c.type, r.status));
+    }
+    switch (r.action) {
+    case EB_ACTION_RETIME: /* the clock runs on; the new grid's next point after now */
+        if (imu_ready)
+            note_i2c(imu_set_rate(state.rate_hz));
+        start_sampling(eb_grid_first_after(state.rate_hz, device_us()));
+        break;
+    case EB_ACTION_MODE:
+        eb_filter_init(&filter, EB_FILTER_ALPHA); /* fused mode levels from its first sample */
+        break;
+    case EB_ACTION_RESET:
+        power_up(); /* sends the HELLO */
+        return;
+    }
+    if (r.hello)
+        send_hello();
+}
+#endif
+
+static void serve_commands()
+{
+#if EB_LEGACY_TEXT
+    while (Serial.available()) /* the paper's sketch ignores its input */
+        Serial.read();
+#else
+    while (Serial.available()) {
+        eb_parser_push(&parser, (uint8_t)Serial.read());
+        eb_command_t c;
+        while (eb_parser_next(&parser, &c))
+            execute(c);
+    }
+#endif
+}
+
+/* ------------------------------------------------------------ health */
+
+/* Once a second while something is wrong: retry a missing IMU and send a status HELLO. */
+static void check_health()
+{
+    if (millis() - last_status_ms < EB_STATUS_PERIOD_MS)
+        return;
+    if (!imu_ready) {
+        bring_up_imu();
+        if (imu_ready)
+            imu_set_rate(state.rate_hz);
+    }
+    if (errors & EB_STATUS_BITS)
+        send_hello();
+    else
+        last_status_ms = millis();
+}
+
+static void show_status_led()
+{
+    uint8_t pattern = !imu_ready ? EB_LED_ERROR : state.streaming ? EB_LED_STREAMING : EB_LED_IDLE;
+    if (eb_led_on(pattern, millis()))
+        PORTB |= LED_PIN_MASK;
+    else
+        PORTB &= (uint8_t)~LED_PIN_MASK;
+}
+
+/* ------------------------------------------------------------ Arduino */
+
+void setup()
+{
+    DDRB |= PHASE_READ | PHASE_COMPUTE | PHASE_SEND | LED_PIN_MASK;
+    Serial.begin(BAUD);
+    imu_bus_begin();
+    state.rate_hz = EB_BOOT_RATE_HZ; /* for the DLPF at bring-up */
+    bring_up_imu();
+    power_up();
+}
+
+void loop()
+{
+    serve_commands();
+    run_due_samples();
+    check_health();
+    show_status_led();
+}

@@ -1,0 +1,31 @@
+/* MPU-9250 and its AK8963 over I2C (Arduino Wire, interrupt-driven TWI, with the
+ * core's bus timeout so a missing or stuck device returns an error, never hangs).
+ * Register values and parsing are in src/eb_sensors.{h,c}. */
+#ifndef IMU_H
+#define IMU_H
+
+#include <stdint.h>
+
+#include "src/eb_sensors.h"
+
+struct Imu {
+    uint8_t whoami; /* WHO_AM_I as read, 0 when nothing answered */
+    uint8_t mag_whoami; /* AK8963 WIA, 0 when there is no magnetometer */
+    uint8_t asa[3]; /* AK8963 fuse-ROM sensitivity adjustment */
+    eb_mag_t mag; /* the latest magnetometer reading (held between its 100 Hz updates) */
+    bool mag_seen; /* a reading has arrived since start-up */
+};
+
+/* Start the I2C bus: 400 kHz, a timeout that resets the TWI. */
+void imu_bus_begin();
+/* Identify and configure the IMU (and the AK8963 if present); returns error bits
+ * (EB_ERR_IMU_MISSING, EB_ERR_I2C_FAILURE, EB_ERR_MAG_MISSING). */
+uint16_t imu_init(Imu &imu, uint16_t rate_hz);
+/* The digital low-pass filter for a sample rate (eb_dlpf_for_rate). */
+bool imu_set_rate(uint16_t rate_hz);
+/* Burst-read accelerometer and gyroscope counts. */
+bool imu_read(int16_t acc[3], int16_t gyr[3]);
+/* Read the AK8963 (ST1..ST2); a new measurement replaces imu.mag. */
+bool imu_read_mag(Imu &imu);
+
+#endif

@@ -1,0 +1,73 @@
+#include "eb_board.h"
+
+#include "eb_clock.h"
+#include "eb_sensors.h"
+
+void eb_state_power_up(eb_state_t *s)
+{
+    s->rate_hz = EB_BOOT_RATE_HZ;
+    s->mode = EB_MODE_RAW;
+    s->streaming = true; /* a plain serial monitor sees data without a handshake */
+    s->seq = 0;
+}
+
+eb_reply_t eb_execute(eb_state_t *s, const eb_command_t *c)
+{
+    eb_reply_t r = {true, EB_ACK_OK, EB_ACTION_NONE, false};
+    switch (c->type) {
+    case EB_START:
+        s->streaming = true;
+        break;
+    case EB_STOP:
+        s->streaming = false;
+        break;
+    case EB_SET_RATE:
+        if (eb_rate_valid(c->arg)) {
+            s->rate_hz = c->arg;
+            r.action = EB_ACTION_RETIME;
+        } else {
+            r.status = EB_ACK_BAD_ARGUMENT;
+        }
+        break;
+    case EB_SET_MODE:
+        if (c->arg == EB_MODE_RAW || c->arg == EB_MODE_FUSED) {
+            r.action = c->arg != s->mode ? EB_ACTION_MODE : EB_ACTION_NONE;
+            s->mode = (uint8_t)c->arg;
+        } else {
+            r.status = EB_ACK_BAD_ARGUMENT;
+        }
+        break;
+    case EB_IDENTIFY:
+        r.ack = false; /* HELLO, no ACK */
+        r.hello = true;
+        break;
+    case EB_RESET:
+        eb_state_power_up(s); /* ACK first, then power-up state, then HELLO */
+        r.action = EB_ACTION_RESET;
+        r.hello = true;
+        break;
+    default:
+        r.ack = false; /* the parser passes commands only; nothing else is answered */
+        break;
+    }
+    return r;
+}
+
+bool eb_rail_update(eb_rail_t *r, uint16_t adc, uint16_t rate_hz)
+{
+    if (!eb_flex_at_rail(adc))
+        r->run = 0;
+    else if (r->run < rate_hz)
+        r->run++;
+    return r->run >= rate_hz;
+}
+
+bool eb_led_on(uint8_t pattern, uint32_t ms)
+{
+    switch (pattern) {
+    case EB_LED_CALIBRATING: return true;
+    case EB_LED_STREAMING: return ms % 1000u < 50u;
+    case EB_LED_IDLE: return ms % 2000u < 1000u;
+    default: return ms % 200u < 100u;
+    }
+}

@@ -1,0 +1,687 @@
+/*
+ * boardsim - run the EnergyBall firmware ELF on a simulated ATmega328P.
+ *
+ *   boardsim ELF [--pty LINK] [--motion CSV] [--interp linear|hold]
+ *                [--flex-mv MV] [--no-imu] [--seconds S] [--speed X]
+ *                [--json] [--verbose]
+ *
+ * The board (simavr 1.6, 16 MHz): a virtual MPU-9250 + AK8963 on the TWI
+ * bus (imu.c), a flex voltage on ADC0 with AVCC = AREF = 5 V, UART0 bridged
+ * to a pty (simavr's uart_pty part) whose slave LINK points to, and the
+ * loop-phase pins PB0..PB2 timed in CPU cycles (phases.c). With --json a
+ * report goes to stdout at the end; messages go to stderr.
+ *
+ * See firmware/sim/README.md.
+ */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <fcntl.h>
+#include <getopt.h>
+#include <math.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <avr_adc.h>
+#include <avr_ioport.h>
+#include <avr_twi.h>
+#include <avr_uart.h>
+#include <sim_avr.h>
+#include <sim_elf.h>
+#include <sim_irq.h>
+#include <uart_pty.h>
+
+#include "frames.h"
+#include "imu.h"
+#include "motion.h"
+#include "phases.h"
+
+DEFINE_FIFO(uint8_t, uart_pty_fifo); /* accessors of the pty part's byte queues */
+
+#define MCU "atmega328p"
+#define F_CPU 16000000u
+#define VCC_MV 5000u
+#define PACE_CYCLES (F_CPU / 1000) /* check the wall clock every simulated ms */
+#define EM_AVR_MACHINE 83          /* ELF e_machine of Atmel AVR */
+#define PTY_FIFO_HIGH 384          /* bytes queued to the pty: wait for the host */
+
+/* ---------------------------------------------------------------- options */
+
+typedef struct options {
+	const char *elf;
+	const char *link;
+	const char *motion;
+	motion_interp_t interp;
+	double flex_mv;   /* < 0: not given, the ADC reads 0 V */
+	int no_imu;
+	double seconds;   /* <= 0: run until killed */
+	double speed;     /* simulated seconds per wall second; 0: as fast as possible */
+	int json;
+	int verbose;
+} options_t;
+
+static void usage(FILE *f)
+{
+	fprintf(f,
+		"usage: boardsim ELF [--pty LINK] [--motion CSV] [--interp linear|hold]\n"
+		"                [--flex-mv MV] [--no-imu] [--seconds S] [--speed X] [--json]\n"
+		"                [--verbose]\n"
+		"Runs the firmware ELF on a simulated ATmega328P at 16 MHz with a virtual\n"
+		"MPU-9250/AK8963 on I2C, a flex voltage on A0 and UART0 on a pty.\n"
+		"  --pty LINK      make LINK a symlink to the UART's pty (open it at 115200)\n"
+		"  --motion CSV    t,gx,gy,gz,ax,ay,az[,mx,my,mz][,flex_mv] (s, rad/s, m/s^2, uT, mV);\n"
+		"                  default: lying still, gravity on +z\n"
+		"  --interp MODE   linear (default) or hold, between CSV rows\n"
+		"  --flex-mv MV    voltage on A0 in millivolts, 0..5000 (default 0)\n"
+		"  --no-imu        nothing answers on the I2C bus\n"
+		"  --seconds S     run S simulated seconds, then exit (default: until killed)\n"
+		"  --speed X       simulated seconds per wall second (default 1 with --pty,\n"
+		"                  else 0 = as fast as possible)\n"
+		"  --json          print a JSON report on stdout at the end\n"
+		"  --verbose       show simavr's own messages\n");
+}
+
+static int parse_double(const char *s, double *out)
+{
+	char *end;
+	errno = 0;
+	double v = strtod(s, &end);
+	if (*s == '\0' || *end != '\0' || errno || !isfinite(v))
+		return -1;
+	*out = v;
+	return 0;
+}
+
+static void die_usage(const char *fmt, const char *arg)
+{
+	fprintf(stderr, "boardsim: ");
+	fprintf(stderr, fmt, arg);
+	fprintf(stderr, " (boardsim --help shows the options)\n");
+	exit(2);
+}
+
+static void parse_options(int argc, char **argv, options_t *o)
+{
+	static const struct option longopts[] = {
+		{ "pty", required_argument, 0, 'p' },
+		{ "motion", required_argument, 0, 'm' },
+		{ "interp", required_argument, 0, 'i' },
+		{ "flex-mv", required_argument, 0, 'f' },
+		{ "no-imu", no_argument, 0, 'n' },
+		{ "seconds", required_argument, 0, 's' },
+		{ "speed", required_argument, 0, 'x' },
+		{ "json", no_argument, 0, 'j' },
+		{ "verbose", no_argument, 0, 'v' },
+		{ "help", no_argument, 0, 'h' },
+		{ 0, 0, 0, 0 },
+	};
+	memset(o, 0, sizeof(*o));
+	o->flex_mv = -1.0;
+	o->speed = -1.0;
+	int c;
+	while ((c = getopt_long(argc, argv, "h", longopts, NULL)) != -1) {
+		switch (c) {
+		case 'p': o->link = optarg; break;
+		case 'm': o->motion = optarg; break;
+		case 'n': o->no_imu = 1; break;
+		case 'j': o->json = 1; break;
+		case 'v': o->verbose = 1; break;
+		case 'h': usage(stdout); exit(0);
+		case 'i':
+			if (strcmp(optarg, "linear") == 0)
+				o->interp = MOTION_LINEAR;
+			else if (strcmp(optarg, "hold") == 0)
+				o->interp = MOTION_HOLD;
+			else
+				die_usage("--interp takes linear or hold, not '%s'", optarg);
+			break;
+		case 'f':
+			if (parse_double(optarg, &o->flex_mv) < 0 || o->flex_mv < 0 || o->flex_mv > VCC_MV)
+				die_usage("--flex-mv takes millivolts 0..5000, not '%s'", optarg);
+			break;
+		case 's':
+			if (parse_double(optarg, &o->seconds) < 0 || o->seconds <= 0)
+				die_usage("--seconds takes a positive number, not '%s'", optarg);
+			break;
+		case 'x':
+			if (parse_double(optarg, &o->speed) < 0 || o->speed < 0)
+				die_usage("--speed takes a number >= 0, not '%s'", optarg);
+			break;
+		default: usage(stderr); exit(2);
+		}
+	}
+	if (optind != argc - 1)
+		die_usage("%s", optind >= argc ? "give the firmware ELF file" : "give exactly one ELF file");
+	o->elf = argv[optind];
+	if (o->speed < 0)
+		o->speed = o->link ? 1.0 : 0.0;
+}
+
+/* ---------------------------------------------------------------- board state */
+
+typedef struct board {
+	avr_t *avr;
+	options_t opt;
+	motion_t motion;
+	imu_t imu;
+	phases_t phases;
+	frame_counter_t uart;
+	uint64_t bytes_lost;      /* UART bytes the pty bridge had no room for */
+	int host_stalled;         /* the host stopped reading the pty */
+	uart_pty_t pty;
+	int has_pty;
+	/* I2C */
+	avr_irq_t *twi_in;
+	int i2c_target;           /* 7-bit address being talked to, -1 none */
+	int i2c_busy;
+	uint64_t i2c_busy_since;
+	uint64_t i2c_bus_cycles;  /* simulated bus time, cycles */
+	uint64_t i2c_transactions, i2c_nacks;
+	/* ADC */
+	avr_irq_t *adc0;
+} board_t;
+
+static volatile sig_atomic_t stop_signal;
+
+static void on_signal(int sig)
+{
+	stop_signal = sig;
+}
+
+static double sim_seconds(const board_t *b)
+{
+	return (double)b->avr->cycle / F_CPU;
+}
+
+/* ---------------------------------------------------------------- I2C bus */
+
+static int i2c_present(board_t *b, uint8_t addr7)
+{
+	if (b->opt.no_imu)
+		return 0;
+	if (addr7 == MPU_ADDR)
+		return 1;
+	return addr7 == AK_ADDR && imu_ak_reachable(&b->imu);
+}
+
+static void i2c_reply(board_t *b, uint8_t msg, uint8_t addr8, uint8_t data)
+{
+	avr_raise_irq(b->twi_in, avr_twi_irq_msg(msg, addr8, data));
+}
+
+/* The address phase of a transaction (a START or repeated START). */
+static void i2c_address(board_t *b, uint8_t addr8)
+{
+	uint8_t addr7 = addr8 >> 1;
+	b->i2c_transactions++;
+	if (!i2c_present(b, addr7)) {
+		b->i2c_target = -1;
+		b->i2c_nacks++; /* nobody answers: the master sees a NACK */
+		return;
+	}
+	b->i2c_target = addr7;
+	imu_start(&b->imu, addr7, addr8 & 1, sim_seconds(b));
+	i2c_reply(b, TWI_COND_ACK, addr8, 1);
+}
+
+/* Every message the TWI master puts on the bus. */
+static void i2c_hook(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+	(void)irq;
+	board_t *b = param;
+	avr_twi_msg_irq_t m;
+	m.u.v = value;
+	uint8_t msg = m.u.twi.msg;
+
+	if (msg & (TWI_COND_START | TWI_COND_WRITE | TWI_COND_READ)) {
+		b->i2c_busy = 1; /* until the TWI sets its next status */
+		b->i2c_busy_since = b->avr->cycle;
+	}
+	if (msg & TWI_COND_STOP) {
+		b->i2c_target = -1;
+		return;
+	}
+	if (msg & TWI_COND_START) {
+		i2c_address(b, m.u.twi.addr);
+		return;
+	}
+	if (b->i2c_target < 0)
+		return;
+	if (msg & TWI_COND_WRITE) {
+		imu_write(&b->imu, (uint8_t)b->i2c_target, m.u.twi.data);
+		i2c_reply(b, TWI_COND_ACK, m.u.twi.addr, 1);
+	} else if (msg & TWI_COND_READ) {
+		uint8_t v = imu_read(&b->imu, (uint8_t)b->i2c_target);
+		i2c_reply(b, TWI_COND_READ, m.u.twi.addr, v);
+	}
+}
+
+/* The TWI set a status: the bus operation in flight has finished. */
+static void i2c_status_hook(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+	(void)irq;
+	(void)value;
+	board_t *b = param;
+	if (b->i2c_busy) {
+		b->i2c_bus_cycles += b->avr->cycle - b->i2c_busy_since;
+		b->i2c_busy = 0;
+	}
+}
+
+static void attach_i2c(board_t *b)
+{
+	imu_init(&b->imu, &b->motion);
+	b->i2c_target = -1;
+	b->twi_in = avr_io_getirq(b->avr, AVR_IOCTL_TWI_GETIRQ(0), TWI_IRQ_INPUT);
+	avr_irq_t *out = avr_io_getirq(b->avr, AVR_IOCTL_TWI_GETIRQ(0), TWI_IRQ_OUTPUT);
+	avr_irq_t *status = avr_io_getirq(b->avr, AVR_IOCTL_TWI_GETIRQ(0), TWI_IRQ_STATUS);
+	if (!b->twi_in || !out || !status) {
+		fprintf(stderr, "boardsim: this simavr has no TWI on the %s\n", MCU);
+		exit(1);
+	}
+	avr_irq_register_notify(out, i2c_hook, b);
+	avr_irq_register_notify(status, i2c_status_hook, b);
+}
+
+/* ---------------------------------------------------------------- ADC */
+
+static uint32_t flex_now(board_t *b)
+{
+	truth_t tr;
+	motion_at(&b->motion, sim_seconds(b), &tr);
+	if (tr.flex_mv >= 0)
+		return (uint32_t)lround(tr.flex_mv > VCC_MV ? VCC_MV : tr.flex_mv);
+	return b->opt.flex_mv >= 0 ? (uint32_t)lround(b->opt.flex_mv) : 0;
+}
+
+/* A conversion starts: put the present flex voltage on ADC0 (millivolts). */
+static void adc_trigger_hook(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+	(void)irq;
+	(void)value;
+	board_t *b = param;
+	avr_raise_irq(b->adc0, flex_now(b));
+}
+
+static void attach_adc(board_t *b)
+{
+	b->avr->vcc = b->avr->avcc = b->avr->aref = VCC_MV;
+	b->adc0 = avr_io_getirq(b->avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0);
+	avr_irq_t *trig = avr_io_getirq(b->avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_OUT_TRIGGER);
+	avr_raise_irq(b->adc0, flex_now(b));
+	avr_irq_register_notify(trig, adc_trigger_hook, b);
+}
+
+/* ---------------------------------------------------------------- phase pins */
+
+static void pin_hook(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+	board_t *b = param;
+	int pin = (int)irq->irq; /* IOPORT_IRQ_PIN0 + n */
+	if (pin >= 0 && pin < PHASE_COUNT)
+		phases_edge(&b->phases.p[pin], (int)value, b->avr->cycle, b->i2c_bus_cycles);
+}
+
+static void attach_pins(board_t *b)
+{
+	phases_init(&b->phases);
+	for (int i = 0; i < PHASE_COUNT; i++) {
+		avr_irq_t *irq = avr_io_getirq(b->avr, AVR_IOCTL_IOPORT_GETIRQ('B'), IOPORT_IRQ_PIN0 + i);
+		avr_irq_register_notify(irq, pin_hook, b);
+	}
+}
+
+/* ---------------------------------------------------------------- UART and pty */
+
+/* Every byte the firmware's UART0 sends: count it, pass it to the pty. */
+static void uart_hook(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+	(void)irq;
+	board_t *b = param;
+	frames_feed(&b->uart, (uint8_t)value);
+	if (!b->has_pty)
+		return;
+	if (uart_pty_fifo_isfull(&b->pty.pty.in)) {
+		b->bytes_lost++; /* like a USB-serial bridge whose host is not reading */
+		return;
+	}
+	avr_raise_irq(b->pty.irq + IRQ_UART_PTY_BYTE_IN, value);
+}
+
+static void uart_flags(board_t *b)
+{
+	uint32_t f = 0;
+	avr_ioctl(b->avr, AVR_IOCTL_UART_GET_FLAGS('0'), &f);
+	f &= ~(AVR_UART_FLAG_STDIO | AVR_UART_FLAG_POLL_SLEEP); /* binary; we pace ourselves */
+	avr_ioctl(b->avr, AVR_IOCTL_UART_SET_FLAGS('0'), &f);
+}
+
+/* Point `link` at `target` atomically (a reader never sees it missing). */
+static int make_link(const char *link, const char *target)
+{
+	char tmp[4096];
+	snprintf(tmp, sizeof(tmp), "%s.new%d", link, (int)getpid());
+	unlink(tmp);
+	if (symlink(target, tmp) < 0 || rename(tmp, link) < 0) {
+		fprintf(stderr, "boardsim: cannot make the link %s -> %s: %s\n", link, target,
+			strerror(errno));
+		unlink(tmp);
+		return -1;
+	}
+	return 0;
+}
+
+/* Remove `link` if it still points to `target`. */
+static void remove_link(const char *link, const char *target)
+{
+	char buf[4096];
+	ssize_t n = readlink(link, buf, sizeof(buf) - 1);
+	if (n < 0)
+		return;
+	buf[n] = '\0';
+	if (strcmp(buf, target) == 0)
+		unlink(link);
+}
+
+static void attach_uart(board_t *b)
+{
+	avr_irq_t *src = avr_io_getirq(b->avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT);
+	uart_flags(b);
+	if (b->opt.link) {
+		uart_pty_init(b->avr, &b->pty);
+		if (!b->pty.pty.s) {
+			fprintf(stderr, "boardsim: could not open a pty\n");
+			exit(1);
+		}
+		uart_pty_connect(&b->pty, '0');
+		/* Route the UART's output through uart_hook (counting, overflow) instead. */
+		avr_unconnect_irq(src, b->pty.irq + IRQ_UART_PTY_BYTE_IN);
+		remove_link("/tmp/simavr-uart0", b->pty.pty.slavename); /* the part's own link */
+		b->has_pty = 1;
+		if (make_link(b->opt.link, b->pty.pty.slavename) < 0)
+			exit(1);
+		fprintf(stderr, "boardsim: UART0 on %s (link %s)\n", b->pty.pty.slavename, b->opt.link);
+	}
+	avr_irq_register_notify(src, uart_hook, b);
+}
+
+/* ---------------------------------------------------------------- loading */
+
+/* A clear message if `path` is not an AVR ELF file; 0 if it looks like one. */
+static int check_elf(const char *path)
+{
+	unsigned char h[20];
+	int fd = open(path, O_RDONLY);
+	if (fd < 0) {
+		fprintf(stderr, "boardsim: cannot open firmware %s: %s (build it with `make -C firmware`)\n",
+			path, strerror(errno));
+		return -1;
+	}
+	ssize_t n = read(fd, h, sizeof(h));
+	close(fd);
+	if (n < (ssize_t)sizeof(h) || memcmp(h, "\177ELF", 4) != 0) {
+		fprintf(stderr, "boardsim: %s is not an ELF file (give the .elf that avr-gcc linked)\n", path);
+		return -1;
+	}
+	unsigned machine = h[5] == 2 ? (unsigned)(h[18] << 8 | h[19]) : (unsigned)(h[18] | h[19] << 8);
+	if (machine != EM_AVR_MACHINE) {
+		fprintf(stderr, "boardsim: %s is an ELF file for another processor (e_machine %u), "
+			"not AVR\n", path, machine);
+		return -1;
+	}
+	return 0;
+}
+
+static void no_sleep(struct avr_t *avr, avr_cycle_count_t how_long)
+{
+	(void)avr;
+	(void)how_long; /* the run loop paces against the wall clock */
+}
+
+static avr_t *load_firmware(const char *path, int verbose)
+{
+	elf_firmware_t fw;
+	memset(&fw, 0, sizeof(fw));
+	if (check_elf(path) < 0)
+		return NULL;
+	if (elf_read_firmware(path, &fw) < 0 || fw.flashsize == 0) {
+		fprintf(stderr, "boardsim: cannot load %s: no program in it\n", path);
+		return NULL;
+	}
+	avr_t *avr = avr_make_mcu_by_name(MCU);
+	if (!avr) {
+		fprintf(stderr, "boardsim: this simavr does not know the %s\n", MCU);
+		return NULL;
+	}
+	avr_init(avr);
+	avr->log = verbose ? LOG_TRACE : LOG_ERROR;
+	avr_load_firmware(avr, &fw);
+	avr->frequency = F_CPU;
+	avr->sleep = no_sleep;
+	return avr;
+}
+
+/* ---------------------------------------------------------------- running */
+
+static double wall_now(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+static void sleep_for(double s)
+{
+	if (s <= 0)
+		return;
+	struct timespec ts = { (time_t)s, (long)((s - (time_t)s) * 1e9) };
+	nanosleep(&ts, NULL);
+}
+
+/*
+ * Let the host drain the pty: while bytes pile up in the bridge, wait for
+ * the host as long as it makes progress. A host that reads nothing for 50 ms
+ * (or nobody at all) is given up on until the queue drains again; meanwhile
+ * the bytes that find no room are lost and counted, as on a real USB bridge.
+ */
+static void wait_for_host(board_t *b)
+{
+	uart_pty_fifo_t *q = &b->pty.pty.in;
+	unsigned fill = uart_pty_fifo_get_read_size(q);
+	if (fill <= PTY_FIFO_HIGH / 2)
+		b->host_stalled = 0;
+	if (fill <= PTY_FIFO_HIGH || b->host_stalled)
+		return;
+	double deadline = wall_now() + 0.05;
+	while (fill > PTY_FIFO_HIGH) {
+		if (wall_now() > deadline) {
+			b->host_stalled = 1;
+			return;
+		}
+		sleep_for(0.0002);
+		unsigned now = uart_pty_fifo_get_read_size(q);
+		if (now < fill)
+			deadline = wall_now() + 0.05; /* progress: keep waiting */
+		fill = now;
+	}
+}
+
+/* Keep simulated time at `speed` times wall time. */
+static void pace(board_t *b, double wall_start)
+{
+	if (b->has_pty)
+		wait_for_host(b);
+	if (b->opt.speed > 0)
+		sleep_for(wall_start + sim_seconds(b) / b->opt.speed - wall_now());
+}
+
+typedef enum { END_SECONDS, END_SIGNAL, END_DONE, END_CRASHED } end_t;
+
+static end_t run(board_t *b, double wall_start)
+{
+	avr_t *avr = b->avr;
+	uint64_t limit = b->opt.seconds > 0 ? (uint64_t)llround(b->opt.seconds * F_CPU) : UINT64_MAX;
+	uint64_t next_pace = PACE_CYCLES;
+	for (;;) {
+		int state = avr_run(avr);
+		if (state == cpu_Done)
+			return END_DONE;
+		if (state == cpu_Crashed)
+			return END_CRASHED;
+		if (avr->cycle >= limit)
+			return END_SECONDS;
+		if (avr->cycle >= next_pace) {
+			next_pace = avr->cycle + PACE_CYCLES;
+			if (stop_signal)
+				return END_SIGNAL;
+			pace(b, wall_start);
+		}
+	}
+}
+
+/* ---------------------------------------------------------------- report */
+
+static void json_phase(FILE *f, const phase_t *p, int last)
+{
+	double mean = p->count ? (double)p->total / p->count : 0.0;
+	double own = p->count ? (double)(p->total - p->bus_total) / p->count : 0.0;
+	fprintf(f, "    \"%s\": {\"pin\": \"%s\", \"count\": %llu, \"total_cycles\": %llu, "
+		"\"mean_cycles\": %.1f, \"max_cycles\": %llu, \"i2c_bus_cycles\": %llu, "
+		"\"mean_cycles_without_i2c_bus\": %.1f}%s\n",
+		p->name, p->pin, (unsigned long long)p->count, (unsigned long long)p->total, mean,
+		(unsigned long long)p->max, (unsigned long long)p->bus_total, own, last ? "" : ",");
+}
+
+/* A JSON string literal of s (quotes, backslashes and control characters escaped). */
+static void json_string(FILE *f, const char *s)
+{
+	fputc('"', f);
+	for (; *s; s++) {
+		unsigned char ch = (unsigned char)*s;
+		if (ch == '"' || ch == '\\')
+			fprintf(f, "\\%c", ch);
+		else if (ch < 0x20)
+			fprintf(f, "\\u%04x", ch);
+		else
+			fputc(ch, f);
+	}
+	fputc('"', f);
+}
+
+static void print_json(FILE *f, const board_t *b, end_t end, double wall)
+{
+	static const char *const ends[] = { "seconds", "signal", "done", "crashed" };
+	const frame_counter_t *u = &b->uart;
+	uint64_t samples = u->by_type[0x01] + u->by_type[0x02];
+	uint64_t total = 0, bus = 0;
+	for (int i = 0; i < PHASE_COUNT; i++) {
+		total += b->phases.p[i].total;
+		bus += b->phases.p[i].bus_total;
+	}
+	uint64_t other = u->frames - samples - u->by_type[0x03] - u->by_type[0x04];
+	fprintf(f, "{\n  \"elf\": ");
+	json_string(f, b->opt.elf);
+	fprintf(f, ",\n  \"end\": \"%s\",\n", ends[end]);
+	fprintf(f, "  \"simulated_s\": %.6f,\n  \"cycles\": %llu,\n  \"frequency_hz\": %u,\n"
+		"  \"wall_s\": %.3f,\n", sim_seconds(b), (unsigned long long)b->avr->cycle, F_CPU, wall);
+	fprintf(f, "  \"uart\": {\"bytes\": %llu, \"frames\": %llu, \"crc_errors\": %llu, "
+		"\"bytes_lost\": %llu, \"raw\": %llu, \"fused\": %llu, \"hello\": %llu, "
+		"\"ack\": %llu, \"other\": %llu},\n",
+		(unsigned long long)u->bytes, (unsigned long long)u->frames,
+		(unsigned long long)u->crc_errors, (unsigned long long)b->bytes_lost,
+		(unsigned long long)u->by_type[0x01], (unsigned long long)u->by_type[0x02],
+		(unsigned long long)u->by_type[0x03], (unsigned long long)u->by_type[0x04],
+		(unsigned long long)other);
+	fprintf(f, "  \"i2c\": {\"transactions\": %llu, \"nacks\": %llu, \"bus_cycles\": %llu},\n",
+		(unsigned long long)b->i2c_transactions, (unsigned long long)b->i2c_nacks,
+		(unsigned long long)b->i2c_bus_cycles);
+	fprintf(f, "  \"phases\": {\n");
+	for (int i = 0; i < PHASE_COUNT; i++)
+		json_phase(f, &b->phases.p[i], i == PHASE_COUNT - 1);
+	fprintf(f, "  },\n  \"samples\": %llu,\n", (unsigned long long)samples);
+	fprintf(f, "  \"cycles_per_sample\": %.1f,\n  \"cycles_per_sample_without_i2c_bus\": %.1f,\n",
+		samples ? (double)total / samples : 0.0, samples ? (double)(total - bus) / samples : 0.0);
+	fprintf(f, "  \"cpu_load\": %.4f\n}\n", b->avr->cycle ? (double)total / b->avr->cycle : 0.0);
+	fflush(f);
+}
+
+/* ---------------------------------------------------------------- main */
+
+/*
+ * simavr and its parts print chatter on stdout; keep stdout for the JSON
+ * report and send the rest to /dev/null (or stderr with --verbose).
+ */
+static FILE *claim_stdout(int verbose)
+{
+	int saved = dup(STDOUT_FILENO);
+	int sink = verbose ? dup(STDERR_FILENO) : open("/dev/null", O_WRONLY);
+	FILE *out = saved >= 0 ? fdopen(saved, "w") : NULL;
+	if (!out || sink < 0) {
+		fprintf(stderr, "boardsim: cannot set up stdout: %s\n", strerror(errno));
+		exit(1);
+	}
+	fflush(stdout);
+	dup2(sink, STDOUT_FILENO);
+	close(sink);
+	return out;
+}
+
+static void install_signals(void)
+{
+	struct sigaction sa;
+	memset(&sa, 0, sizeof(sa));
+	sa.sa_handler = on_signal;
+	sigaction(SIGINT, &sa, NULL);
+	sigaction(SIGTERM, &sa, NULL);
+	sigaction(SIGHUP, &sa, NULL);
+	signal(SIGPIPE, SIG_IGN);
+}
+
+static void load_motion(board_t *b)
+{
+	char err[1024];
+	if (!b->opt.motion) {
+		motion_still(&b->motion);
+		return;
+	}
+	if (motion_load(&b->motion, b->opt.motion, err, sizeof(err)) < 0) {
+		fprintf(stderr, "boardsim: %s\n", err);
+		exit(2);
+	}
+	b->motion.interp = b->opt.interp;
+}
+
+int main(int argc, char **argv)
+{
+	static board_t board; /* large (the pty part's buffers); not on the stack */
+	board_t *b = &board;
+	parse_options(argc, argv, &b->opt);
+	load_motion(b);
+	FILE *out = claim_stdout(b->opt.verbose);
+	b->avr = load_firmware(b->opt.elf, b->opt.verbose);
+	if (!b->avr)
+		return 2;
+	frames_init(&b->uart);
+	attach_i2c(b);
+	attach_adc(b);
+	attach_pins(b);
+	attach_uart(b);
+	install_signals();
+
+	double wall_start = wall_now();
+	end_t end = run(b, wall_start);
+	double wall = wall_now() - wall_start;
+	if (end == END_CRASHED)
+		fprintf(stderr, "boardsim: the firmware crashed at %.6f s (cycle %llu)\n",
+			sim_seconds(b), (unsigned long long)b->avr->cycle);
+	if (b->opt.json)
+		print_json(out, b, end, wall);
+	if (b->has_pty)
+		remove_link(b->opt.link, b->pty.pty.slavename);
+	motion_free(&b->motion);
+	return end == END_CRASHED ? 3 : 0;
+}

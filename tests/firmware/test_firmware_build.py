@@ -1,0 +1,69 @@
+"""The firmware builds with avr-gcc and the Debian Arduino core, within the 75% budget.
+
+Skipped without the AVR toolchain (apt-get install gcc-avr binutils-avr avr-libc
+arduino-core-avr), except under CI=true, where a missing toolchain fails.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from .firmware_lib import FIRMWARE, make, require, require_tool
+
+CORE = Path("/usr/share/arduino/hardware/arduino/avr/cores/arduino/Arduino.h")
+FLASH_LIMIT, RAM_LIMIT = 24576, 1536  # 75% of 32 KB flash and 2 KB RAM
+SIZE_LINE = re.compile(r"^(?P<name>[\w-]+): (?P<what>flash|RAM) (?P<bytes>\d+) bytes "
+                       r"\((?P<percent>[\d.]+)% of (?P<total>\d+), limit (?P<limit>\d+)\)$", re.M)
+
+
+def require_avr() -> None:
+    for tool in ("make", "avr-gcc", "avr-g++", "avr-size", "avr-objcopy"):
+        require_tool(tool, "apt-get install gcc-avr binutils-avr avr-libc arduino-core-avr")
+    require(CORE.exists(), f"the Arduino core ({CORE}) is not installed: apt-get install arduino-core-avr")
+
+
+def sizes(output: str) -> dict[str, tuple[int, float]]:
+    return {m["what"]: (int(m["bytes"]), float(m["percent"])) for m in SIZE_LINE.finditer(output)}
+
+
+@pytest.fixture(scope="module")
+def build_dir(tmp_path_factory):
+    require_avr()
+    return tmp_path_factory.mktemp("firmware-avr")
+
+
+@pytest.mark.parametrize("variant, name", [((), "energyball"), (("LEGACY_TEXT=1",), "energyball-legacy")])
+def test_firmware_builds_within_budget(build_dir, variant, name):
+    r = make(f"BUILD_DIR={build_dir}", *variant)
+    assert r.returncode == 0, f"firmware build failed:\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
+    assert (build_dir / f"{name}.elf").is_file() and (build_dir / f"{name}.hex").is_file()
+    got = sizes(r.stdout)
+    assert set(got) == {"flash", "RAM"}, r.stdout[-2000:]
+    flash, ram = got["flash"][0], got["RAM"][0]
+    assert 0 < flash <= FLASH_LIMIT and 0 < ram <= RAM_LIMIT
+    assert got["flash"][1] == pytest.approx(100 * flash / 32768, abs=0.06)
+    assert got["RAM"][1] == pytest.approx(100 * ram / 2048, abs=0.06)
+    # the hex starts at the reset vector and is what avrdude would write
+    assert (build_dir / f"{name}.hex").read_text().startswith(":100000000C94")
+
+
+def test_build_fails_above_the_budget(build_dir):
+    make(f"BUILD_DIR={build_dir}")
+    r = make(f"BUILD_DIR={build_dir}", "FLASH_LIMIT=1000")
+    assert r.returncode != 0 and "over the 75% budget" in r.stderr
+
+
+def test_host_self_test_passes(tmp_path):
+    require_tool("gcc", "make host-test compiles the firmware's C for the host")
+    r = make(f"BUILD_DIR={tmp_path}", "host-test")
+    assert r.returncode == 0 and "host self-test passed" in r.stdout, r.stdout + r.stderr
+
+
+def test_sketch_documents_its_phase_markers():
+    """The cycle-counting harness (firmware/sim) relies on PB0/PB1/PB2 as documented."""
+    sketch = (FIRMWARE / "energyball" / "energyball.ino").read_text()
+    for pin in ("PB0 (D8)", "PB1 (D9)", "PB2 (D10)"):
+        assert pin in sketch and pin in (FIRMWARE / "README.md").read_text()

@@ -1,0 +1,473 @@
+"""The firmware's portable C, compiled for the host, against tracker.protocol and the
+Python complementary filter (firmware/PROTOCOL.md; seed 000 sec. 3)."""
+
+from __future__ import annotations
+
+import binascii
+import ctypes as C
+import math
+import random
+import struct
+
+import numpy as np
+import pytest
+
+from tracker import protocol as P
+from tracker.fusion import make
+from tracker.sim import Simulator, arm_chain, arm_swing, mpu9250
+
+from .firmware_lib import (Command, Filter, Fused, Grid, Hello, Mag, Parser, Rail, Raw, State,
+                           Still, TimerPlan, build_host_library, frame_buffer)
+
+F32 = np.float32
+
+
+@pytest.fixture(scope="module")
+def lib(tmp_path_factory):
+    return build_host_library(tmp_path_factory.mktemp("firmware-host"))
+
+
+def encode(lib, fn, record) -> bytes:
+    out = frame_buffer()
+    n = getattr(lib, fn)(out, C.byref(record))
+    return bytes(out[:n])
+
+
+def c_raw(lib, s: P.RawSample) -> bytes:
+    mag = s.mag_counts or (0, 0, 0)
+    rec = Raw(s.t_us, s.seq, (C.c_int16 * 3)(*s.acc_counts), (C.c_int16 * 3)(*s.gyr_counts),
+              (C.c_int16 * 3)(*mag), s.flex_adc, P.ACC_FS_G.index(s.acc_fs_g),
+              P.GYR_FS_DPS.index(s.gyr_fs_dps), s.mag_counts is not None, s.mag_overflow)
+    return encode(lib, "eb_encode_raw", rec)
+
+
+def c_fused(lib, s: P.FusedSample) -> bytes:
+    return encode(lib, "eb_encode_fused", Fused(s.t_us, s.seq, (C.c_float * 4)(*s.q), s.flex_deg))
+
+
+def c_hello(lib, h: P.Hello) -> bytes:
+    major, minor, patch = (int(v) for v in h.firmware.split("."))
+    rec = Hello(major, minor, patch, h.imu_whoami, h.mag_whoami, h.rate_hz, int(h.mode),
+                int(h.streaming), P.ACC_FS_G.index(h.acc_fs_g), P.GYR_FS_DPS.index(h.gyr_fs_dps),
+                int(h.errors))
+    return encode(lib, "eb_encode_hello", rec)
+
+
+def decode_one(data: bytes):
+    d = P.FrameDecoder()
+    packets = d.feed(data)
+    assert d.stats.frames == 1 and d.stats.bytes_skipped == 0 and len(packets) == 1
+    return packets[0]
+
+
+# ------------------------------------------------------------------ CRC and frames
+
+
+def test_crc_is_ccitt_false(lib):
+    assert lib.eb_crc16(b"123456789", 9, 0xFFFF) == 0x29B1
+    assert lib.eb_crc16(b"", 0, 0xFFFF) == 0xFFFF
+    rng = random.Random(1)
+    for n in range(0, 300, 7):
+        data = bytes(rng.randrange(256) for _ in range(n))
+        assert lib.eb_crc16(data, n, 0xFFFF) == binascii.crc_hqx(data, 0xFFFF)
+
+
+def test_raw_frame_worked_example(lib):
+    s = P.RawSample(0.0, 1234567, 42, (120, -340, 2048), (-5, 17, 3), (200, -150, -310), 390)
+    expected = bytes.fromhex("a55a1a0187d612002a007800acfe0008fbff11000300c8006affcafe867d5f88")
+    assert c_raw(lib, s) == expected == P.encode_raw(s)
+
+
+def random_raw(rng: random.Random) -> P.RawSample:
+    i16 = lambda: rng.randrange(-32768, 32768)  # noqa: E731
+    return P.RawSample(0.0, rng.randrange(2**32), rng.randrange(2**16), (i16(), i16(), i16()),
+                       (i16(), i16(), i16()), rng.choice([None, (i16(), i16(), i16())]),
+                       rng.randrange(1024), rng.choice(P.ACC_FS_G), rng.choice(P.GYR_FS_DPS),
+                       rng.random() < 0.3)
+
+
+def test_raw_frames_match_the_host_encoder_byte_for_byte(lib):
+    rng = random.Random(2)
+    for _ in range(500):
+        s = random_raw(rng)
+        data = c_raw(lib, s)
+        assert data == P.encode_raw(s)
+        got = decode_one(data)
+        assert (got.t_us, got.seq, got.acc_counts, got.gyr_counts, got.mag_counts, got.flex_adc,
+                got.acc_fs_g, got.gyr_fs_dps, got.mag_overflow) == \
+               (s.t_us, s.seq, s.acc_counts, s.gyr_counts, s.mag_counts, s.flex_adc,
+                s.acc_fs_g, s.gyr_fs_dps, s.mag_overflow)
+
+
+def test_fused_frame_worked_example(lib):
+    s = P.FusedSample(0.0, 500000, 7, (0.70711, 0.70711, 0.0, 0.0), 30.25)
+    expected = bytes.fromhex("a55a1002 20a10700 0700412d 412d0000 0000d10b 2189".replace(" ", ""))
+    assert c_fused(lib, s) == expected == P.encode_fused(s)
+
+
+def test_fused_frames_match_the_host_encoder_byte_for_byte(lib):
+    """Quaternion components of any float32 value (x 16384 is exact), saturation
+    included, and flex angles in quarter degrees (x 100 exact in float)."""
+    rng = np.random.default_rng(3)
+    for _ in range(500):
+        q = [float(F32(v)) for v in rng.normal(0, 0.8, 4)]
+        flex = float(rng.integers(-1400, 1400)) / 4 if rng.random() < 0.9 else rng.choice([-400.0, 400.0])
+        s = P.FusedSample(0.0, int(rng.integers(2**32)), int(rng.integers(2**16)), tuple(q), flex)
+        data = c_fused(lib, s)
+        assert data == P.encode_fused(s)
+        got = decode_one(data)
+        assert got.seq == s.seq and got.t_us == s.t_us
+
+
+def test_q14_and_centidegree_rounding_agree_with_python(lib):
+    for x in (0.5 / 16384, 1.5 / 16384, 2.5 / 16384, -2.5 / 16384, 1.0, 2.0, -2.0, 0.999969):
+        assert lib.eb_q14(x) == max(-32768, min(32767, round(float(F32(x)) * 16384)))
+    rng = np.random.default_rng(4)
+    for deg in rng.uniform(-350, 350, 2000).astype(F32):
+        # float32 x 100 may round across a half: the C value is within 1 centidegree
+        assert abs(lib.eb_centi(float(deg)) - max(-32768, min(32767, round(float(deg) * 100)))) <= 1
+
+
+def test_hello_frames_match_the_host_encoder(lib):
+    reference = P.Hello(1, "1.0.0", 0x71, 0x48, 200, P.Mode.RAW, True, 16, 2000, P.BoardError.NONE)
+    assert c_hello(lib, reference) == bytes.fromhex("a55a0e0301010000 7148c80000010303 0000a7dd"
+                                                     .replace(" ", ""))
+    variants = [
+        P.Hello(1, "1.0.0", 0x73, 0, 1000, P.Mode.FUSED, False, 2, 250, P.BoardError.MAG_MISSING),
+        P.Hello(1, "1.0.0", 0x70, 0, 1, P.Mode.RAW, True, 8, 1000,
+                P.BoardError.IMU_MISSING | P.BoardError.I2C_FAILURE | P.BoardError.OVERRUN),
+        P.Hello(1, "1.0.0", 0, 0, 200, P.Mode.RAW, True, 16, 2000, P.BoardError.FLEX_RAIL),
+    ]
+    for h in [reference, *variants]:
+        data = c_hello(lib, h)
+        assert data == P.encode_hello(h)
+        assert decode_one(data) == h
+
+
+def test_ack_frames_match_the_host_encoder(lib):
+    for cmd in range(0x81, 0x87):
+        for status in P.AckStatus:
+            out = frame_buffer()
+            n = lib.eb_encode_ack(out, cmd, int(status))
+            assert bytes(out[:n]) == P.encode_ack(P.Ack(cmd, status))
+    out = frame_buffer()
+    n = lib.eb_encode_ack(out, P.FrameType.SET_RATE, 0)
+    assert bytes(out[:n]).hex() == "a55a02048300a3fb"  # PROTOCOL.md 11.2
+
+
+# ------------------------------------------------------------------ the board's decoder
+
+
+def c_commands(lib, data: bytes, chunks: list[int] | None = None) -> list[P.Command]:
+    parser, cmd, out = Parser(), Command(), []
+    lib.eb_parser_init(C.byref(parser))
+    for b in data:
+        lib.eb_parser_push(C.byref(parser), b)
+        while lib.eb_parser_next(C.byref(parser), C.byref(cmd)):
+            t = P.FrameType(cmd.type)
+            out.append(P.Command(t, cmd.arg if t in (P.FrameType.SET_RATE, P.FrameType.SET_MODE) else None))
+    return out
+
+
+def python_commands(data: bytes) -> list[P.Command]:
+    return [p for p in P.FrameDecoder(accept_commands=True).feed(data) if isinstance(p, P.Command)]
+
+
+def random_command(rng: random.Random) -> P.Command:
+    t = rng.choice(list(P.FrameType)[4:])
+    arg = {P.FrameType.SET_RATE: rng.randrange(2**16), P.FrameType.SET_MODE: rng.randrange(256)}.get(t)
+    return P.Command(t, arg)
+
+
+def test_parser_finds_the_same_commands_as_the_host_decoder(lib):
+    """Commands among garbage, false syncs, corrupted frames, board frames and unknown types.
+
+    The board's decoder holds 40 bytes, not 261: it rejects a longer candidate at once
+    where the host's waits for it; once the host's has judged it, both agree."""
+    rng = random.Random(5)
+    for trial in range(60):
+        parts = []
+        for _ in range(rng.randrange(1, 25)):
+            kind = rng.random()
+            if kind < 0.5:
+                parts.append(P.encode_command(random_command(rng)))
+            elif kind < 0.6:
+                parts.append(P.encode_raw(random_raw(rng)))  # echoed board frames are skipped
+            elif kind < 0.7:
+                parts.append(P.frame(0x99, bytes(rng.randrange(256) for _ in range(rng.randrange(20)))))
+            elif kind < 0.8:
+                bad = bytearray(P.encode_command(random_command(rng)))
+                bad[rng.randrange(2, len(bad))] ^= 1 << rng.randrange(8)
+                parts.append(bytes(bad))
+            elif kind < 0.9:
+                parts.append(b"\xa5\x5a" + bytes(rng.randrange(256) for _ in range(rng.randrange(6))))
+            else:
+                parts.append(bytes(rng.randrange(256) for _ in range(rng.randrange(30))))
+        # Trailing padding lets the host decoder finish waiting on a long false candidate
+        # (up to 261 bytes) that the board's 40-byte decoder rejects at once.
+        data = b"".join(parts) + bytes(300)
+        assert c_commands(lib, data) == python_commands(data), f"trial {trial}"
+
+
+def test_parser_worked_examples(lib):
+    data = bytes.fromhex("a55a0281c0ffee" "a55a0283c8005f94" "a55a00869c" "a55a01840 1d13c".replace(" ", ""))
+    assert c_commands(lib, data) == python_commands(data) == [
+        P.Command(P.FrameType.SET_RATE, 200), P.Command(P.FrameType.SET_MODE, 1)]
+
+
+# ------------------------------------------------------------------ the board's state machine
+
+
+def execute(lib, state: State, command: P.Command):
+    r = lib.eb_execute(C.byref(state), C.byref(Command(int(command.type), command.arg or 0)))
+    return r.ack, r.status, r.action, r.hello
+
+
+def test_commands_change_the_state_and_answer_as_the_virtual_board(lib):
+    s = State()
+    lib.eb_state_power_up(C.byref(s))
+    assert (s.rate_hz, s.mode, s.streaming, s.seq) == (200, 0, True, 0)
+    T = P.FrameType
+    OK, BAD = int(P.AckStatus.OK), int(P.AckStatus.BAD_ARGUMENT)
+    assert execute(lib, s, P.Command(T.STOP)) == (True, OK, 0, False) and not s.streaming
+    assert execute(lib, s, P.Command(T.STOP))[:2] == (True, OK)
+    assert execute(lib, s, P.Command(T.START))[:2] == (True, OK) and s.streaming
+    for rate, status in [(0, BAD), (1001, BAD), (1, OK), (1000, OK), (250, OK)]:
+        ack, got, action, _ = execute(lib, s, P.Command(T.SET_RATE, rate))
+        assert (ack, got) == (True, status)
+        assert action == (1 if status == OK else 0)
+    assert s.rate_hz == 250
+    assert execute(lib, s, P.Command(T.SET_MODE, 2))[:2] == (True, BAD) and s.mode == 0
+    assert execute(lib, s, P.Command(T.SET_MODE, 1)) == (True, OK, 2, False) and s.mode == 1
+    assert execute(lib, s, P.Command(T.SET_MODE, 1)) == (True, OK, 0, False)
+    assert execute(lib, s, P.Command(T.IDENTIFY)) == (False, OK, 0, True)  # HELLO, no ACK
+    s.seq = 1234
+    s.streaming = False
+    assert execute(lib, s, P.Command(T.RESET)) == (True, OK, 3, True)  # ACK, power up, HELLO
+    assert (s.rate_hz, s.mode, s.streaming, s.seq) == (200, 0, True, 0)
+
+
+def test_flex_rail_needs_a_second_of_rail_readings(lib):
+    rail = Rail()
+    assert not any(lib.eb_rail_update(C.byref(rail), 0, 200) for _ in range(199))
+    assert lib.eb_rail_update(C.byref(rail), 1023, 200)
+    assert not lib.eb_rail_update(C.byref(rail), 390, 200)
+
+
+def test_led_patterns(lib):
+    assert all(lib.eb_led_on(0, ms) for ms in range(0, 3000, 7))
+    assert [lib.eb_led_on(1, ms) for ms in (0, 49, 50, 999, 1000)] == [True, True, False, False, True]
+    assert sum(lib.eb_led_on(3, ms) for ms in range(1000)) == 500  # 5 Hz, half on
+
+
+# ------------------------------------------------------------------ sample clock
+
+
+@pytest.mark.parametrize("rate", [1, 3, 7, 20, 64, 128, 200, 216, 300, 314, 333, 997, 1000])
+def test_sample_grid_is_round_k_over_rate(lib, rate):
+    """Stamps are round(k * 1e6 / rate) (ties up: within 1 us of Python's round, exact otherwise)."""
+    g = Grid()
+    for k0 in (0, 12345, 2**31 // 1000 * rate // 1000):
+        lib.eb_grid_set(C.byref(g), rate, k0)
+        for k in range(k0, k0 + 3 * rate + 5):
+            exact = (2 * k * 10**6 + rate) // (2 * rate)  # floor(k 1e6 / rate + 1/2)
+            assert g.t_us == exact % 2**32
+            assert abs(g.t_us - round(k / rate * 1e6) % 2**32) <= 1
+            lib.eb_grid_advance(C.byref(g))
+
+
+def test_first_grid_point_after_now_is_as_the_virtual_board(lib):
+    rng = random.Random(6)
+    for _ in range(2000):
+        rate, now = rng.randrange(1, 1001), rng.randrange(2**32)
+        k = lib.eb_grid_first_after(rate, now)
+        assert k == now * rate // 10**6 + 1  # board.py _retime: int(now * rate) + 1
+        g = Grid()
+        lib.eb_grid_set(C.byref(g), rate, k)
+        # after now (or rounded onto it, less than half a microsecond away) below the wrap
+        assert g.t_us >= now or k * 10**6 // rate >= 2**32
+
+
+def test_catch_up_limit_is_50_ms(lib):
+    for rate in (1, 19, 20, 39, 40, 200, 1000):
+        assert lib.eb_catch_up_limit(rate) == max(1, rate // 20)
+
+
+@pytest.mark.parametrize("rate", [1, 2, 3, 30, 31, 200, 300, 333, 1000])
+def test_timer_periods_fit_16_bits_and_sum_to_a_second(lib, rate):
+    t = TimerPlan()
+    lib.eb_timer_plan(C.byref(t), rate, 16_000_000)
+    periods = [lib.eb_timer_next_period(C.byref(t)) for _ in range(rate)]
+    assert sum(periods) == t.ticks_per_s and max(periods) <= 65536 and max(periods) - min(periods) <= 1
+    prescaler = {2: 8, 3: 64, 4: 256, 5: 1024}[t.prescaler_bits]
+    assert t.ticks_per_s * prescaler == 16_000_000
+    assert lib.eb_timer_ticks(C.byref(t), 1000) == max(1, 1000 * 16 // prescaler)
+
+
+def test_every_rate_is_valid_from_1_to_1000(lib):
+    assert [r for r in range(0, 1100) if lib.eb_rate_valid(r)] == list(range(1, 1001))
+
+
+# ------------------------------------------------------------------ complementary filter
+
+
+def arm_motion(seconds: float = 20.0, rate: float = 200.0):
+    data = Simulator(arm_chain(), arm_swing(), mpu9250(), seed=7).simulate(seconds, rate)
+    return data.gyr[:, 0].astype(F32), data.acc[:, 0].astype(F32)
+
+
+def test_c_filter_matches_the_python_complementary_filter(lib):
+    """4000 samples of a simulated arm swing (tracker.sim) through both filters."""
+    gyr, acc = arm_motion()
+    dt = 1.0 / 200.0
+    py = make("complementary")
+    f = Filter()
+    lib.eb_filter_init(C.byref(f), 0.999)
+    worst = 0.0
+    for g, a in zip(gyr, acc):
+        q_py = py.update(g.tolist(), a.tolist(), None, dt)
+        lib.eb_filter_update(C.byref(f), g.ctypes.data_as(C.POINTER(C.c_float)),
+                             a.ctypes.data_as(C.POINTER(C.c_float)), F32(dt))
+        worst = max(worst, max(abs(x - y) for x, y in zip(f.q, q_py)))
+    assert worst < 1e-4, worst
+    assert abs(math.hypot(*f.q) - 1.0) < 1e-6
+
+
+def test_c_filter_levels_from_the_first_sample_and_skips_a_zero_accelerometer(lib):
+    f = Filter()
+    lib.eb_filter_init(C.byref(f), 0.999)
+    zero = (C.c_float * 3)(0, 0, 0)
+    lib.eb_filter_update(C.byref(f), zero, (C.c_float * 3)(0, 0, 0), 0.005)
+    assert list(f.q) == [1, 0, 0, 0] and not f.levelled
+    lib.eb_filter_update(C.byref(f), zero, (C.c_float * 3)(9.81, 0, 0), 0.005)  # x up
+    py = make("complementary")
+    py.update((0, 0, 0), (9.81, 0, 0), None, 0.005)
+    assert f.levelled and np.allclose(list(f.q), py.quat, atol=1e-6)
+    down = (C.c_float * 3)(0, 0, -9.81)  # upside down: a half-turn about east
+    lib.eb_filter_init(C.byref(f), 0.999)
+    lib.eb_filter_update(C.byref(f), zero, down, 0.005)
+    py = make("complementary")
+    py.update((0, 0, 0), (0, 0, -9.81), None, 0.005)
+    assert np.allclose(list(f.q), py.quat, atol=1e-6)
+
+
+# ------------------------------------------------------------------ legacy text lines
+
+
+def c_line(lib, q, flex) -> bytes:
+    out = C.create_string_buffer(64)
+    n = lib.eb_format_text_line(out, (C.c_float * 4)(*q), flex)
+    return out.raw[:n]
+
+
+def test_text_line_worked_example(lib):
+    assert c_line(lib, (0.9553, 0.2955, 0.0, 0.0), 45.0) == b"0.9553,0.2955,0.0000,0.0000,45.00\r\n"
+    assert c_line(lib, (-0.5, 0.5, -0.00001, 1.0), -12.346) == b"-0.5000,0.5000,-0.0000,1.0000,-12.35\r\n"
+
+
+def test_text_lines_read_back_as_python_formats_them(lib):
+    rng = np.random.default_rng(8)
+    decoder = P.TextDecoder()
+    for _ in range(1000):
+        q = rng.normal(size=4)
+        q = (q / np.linalg.norm(q)).astype(F32)
+        flex = F32(rng.uniform(-30, 150))
+        line = c_line(lib, q.tolist(), float(flex))
+        reference = P.format_text_line(P.FusedSample(0.0, None, 0, tuple(q.tolist()), float(flex)))
+        got = [float(v) for v in line.split(b",")]
+        want = [float(v) for v in reference.split(b",")]
+        assert np.allclose(got, want, rtol=0, atol=1.01e-4), (line, reference)  # float32 ties
+        (sample,) = decoder.feed(line)
+        assert np.allclose(sample.q, np.asarray(q, float) / np.linalg.norm(got[:4]), atol=2e-4)
+    assert decoder.stats.bad_lines == 0
+
+
+# ------------------------------------------------------------------ sensors
+
+
+def test_whoami_and_register_values(lib):
+    assert [w for w in range(256) if lib.eb_imu_known(w)] == [0x70, 0x71, 0x73]
+    assert [lib.eb_fs_register(c) for c in range(4)] == [0x00, 0x08, 0x10, 0x18]
+    assert [lib.eb_dlpf_for_rate(r) for r in (1, 40, 80, 200, 368, 400, 736, 1000)] == [6, 5, 4, 3, 2, 2, 1, 0]
+
+
+def test_mpu_burst_is_big_endian_and_skips_the_temperature(lib):
+    acc, gyr = (120, -340, 2048), (-5, 17, -32768)
+    burst = struct.pack(">7h", *acc, 1234, *gyr)
+    a, g = (C.c_int16 * 3)(), (C.c_int16 * 3)()
+    lib.eb_mpu_parse(burst, a, g)
+    assert tuple(a) == acc and tuple(g) == gyr
+
+
+def test_magnetometer_adjustment_and_axes(lib):
+    """h = H ((ASA - 128) / 256 + 1) rounded; sent as (h_y, h_x, -h_z) (PROTOCOL.md 4.1)."""
+    rng = random.Random(9)
+    for _ in range(3000):
+        h, asa = rng.randrange(-32768, 32768), rng.randrange(256)
+        want = max(-32768, min(32767, math.floor(h * (asa + 128) / 256 + 0.5)))
+        assert lib.eb_mag_adjust(h, asa) == want
+    hx, hy, hz, asa = 1000, -2000, 300, bytes([128, 176, 64])
+    data = bytes([0x01]) + struct.pack("<3h", hx, hy, hz) + bytes([0x08])
+    m = Mag()
+    lib.eb_ak_parse(data, asa, C.byref(m))
+    assert tuple(m.mag) == (round(hy * 1.1875), hx, -round(hz * 0.75)) and m.ready and m.overflow
+    lib.eb_ak_parse(bytes(8), asa, C.byref(m))
+    assert not m.ready and not m.overflow
+    lib.eb_ak_parse(bytes([1]) + struct.pack("<3h", 0, 0, -32768) + bytes([0]), bytes([128] * 3), C.byref(m))
+    assert m.mag[2] == 32767  # -(-32768) saturates
+
+
+def test_flex_angle_is_the_papers_eq_3(lib):
+    for adc in (0.0, 120.0, 390.0, 391.5, 1023.0):
+        assert lib.eb_flex_deg(adc) == pytest.approx(-(adc - 390) / 3, abs=1e-5)
+    assert [a for a in range(1024) if lib.eb_flex_at_rail(a)] == [0, 1023]
+
+
+def test_unit_conversions_match_the_host(lib):
+    for code, (fs_g, fs_dps) in enumerate(zip(P.ACC_FS_G, P.GYR_FS_DPS)):
+        s = P.RawSample(0, 0, 0, (2048, -32768, 32767), (16384, -1, 32767), None, 0, fs_g, fs_dps)
+        for i in range(3):
+            assert lib.eb_acc_m_s2(s.acc_counts[i], code) == pytest.approx(s.acc[i], rel=1e-6)
+            assert lib.eb_gyr_rad_s(s.gyr_counts[i], code) == pytest.approx(s.gyr[i], rel=1e-6)
+
+
+# ------------------------------------------------------------------ gyroscope bias
+
+
+def still_of(lib, samples):
+    s = Still()
+    lib.eb_still_init(C.byref(s))
+    for g, a in samples:
+        lib.eb_still_add(C.byref(s), (C.c_int16 * 3)(*g), (C.c_int16 * 3)(*a))
+    return s
+
+
+def test_bias_is_the_mean_when_still(lib):
+    rng = np.random.default_rng(10)
+    gyr = rng.normal((30, -12, 5), 1.5, (128, 3)).round().astype(int)
+    acc = rng.normal((0, 0, 2048), 3, (128, 3)).round().astype(int)
+    s = still_of(lib, zip(gyr.tolist(), acc.tolist()))
+    assert lib.eb_still_is_still(C.byref(s))
+    bias = (C.c_int16 * 3)()
+    lib.eb_still_mean(C.byref(s), bias)
+    assert np.abs(np.array(bias) - gyr.mean(axis=0)).max() <= 0.5
+    moving = gyr.copy()
+    moving[64:, 1] += 40  # 2.4 deg/s: turning
+    assert not lib.eb_still_is_still(C.byref(still_of(lib, zip(moving.tolist(), acc.tolist()))))
+    assert not lib.eb_still_is_still(C.byref(still_of(lib, zip(gyr[:100].tolist(), acc.tolist()))))
+
+
+def test_bias_record_round_trips_and_rejects_corruption(lib):
+    rec = C.create_string_buffer(12)
+    lib.eb_bias_pack(rec, (C.c_int16 * 3)(30, -12, -32768))
+    raw = rec.raw[:12]
+    assert raw[:10] == b"EB\x01\x00" + struct.pack("<3h", 30, -12, -32768)
+    assert struct.unpack("<H", raw[10:])[0] == binascii.crc_hqx(raw[:10], 0xFFFF)
+    out = (C.c_int16 * 3)(7, 7, 7)
+    assert lib.eb_bias_unpack(raw, out) and tuple(out) == (30, -12, -32768)
+    for i in range(12):
+        bad = bytearray(raw)
+        bad[i] ^= 0x10
+        out = (C.c_int16 * 3)(7, 7, 7)
+        assert not lib.eb_bias_unpack(bytes(bad), out) and tuple(out) == (7, 7, 7)
+    assert not lib.eb_bias_unpack(b"\xff" * 12, out)  # a blank EEPROM

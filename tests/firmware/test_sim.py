@@ -1,0 +1,398 @@
+"""The real firmware on a simulated board: firmware/sim/boardsim (simavr) behind a pty.
+
+The harness runs firmware/build/energyball.elf on a simulated ATmega328P with a
+virtual MPU-9250 + AK8963 fed from a motion CSV and a flex voltage on A0; the
+host side (`tracker.link.Link`, `armtracker monitor`) reads it like a board.
+See firmware/sim/README.md.
+
+Needs avr-gcc, the Arduino AVR core and simavr's development files (the Debian
+packages in firmware/sim/README.md). Without them these tests skip, except under
+CI=true, where they fail.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Iterator
+
+import pytest
+import serial
+
+from tracker import protocol as P
+from tracker.board import FIRMWARE_VERSION, acc_lsb, counts, gyr_lsb
+from tracker.link import Link, LinkSettings
+
+ROOT = Path(__file__).resolve().parents[2]
+FIRMWARE = ROOT / "firmware"
+ELF = FIRMWARE / "build" / "energyball.elf"
+SIM_DIR = FIRMWARE / "sim"
+BOARDSIM = SIM_DIR / "boardsim"
+
+RATE_HZ = 200
+FLEX_MV = 2000  # 2000 / 5000 * 1023 = 409.2: rounding and simavr's truncation agree
+MAX_CYCLES_PER_SAMPLE = 40_000  # raw mode at 200 Hz: half of the 80,000-cycle period
+
+# Piecewise-constant motion (sample-and-hold): a constant rotation with gravity
+# tilted, another, then rates and forces beyond full scale (the counts saturate).
+SEGMENTS = [
+    # t, (gx, gy, gz) rad/s, (ax, ay, az) m/s^2, (mx, my, mz) uT
+    (0.0, (0.5, -0.25, 1.0), (1.2, -2.5, 9.4), (12.0, -8.0, -35.0)),
+    (1.0, (-3.0, 2.0, 0.1), (-4.9, 0.0, 8.5), (-20.0, 15.0, 30.0)),
+    (2.0, (40.0, -40.0, 0.0), (200.0, -200.0, 0.0), (0.0, 20.0, -40.0)),
+]
+EDGE_S = 0.02  # samples this close to a segment change may hold either segment
+
+
+# ---------------------------------------------------------------- tools and builds
+
+
+def _missing_tools() -> list[str]:
+    missing = [t for t in ("make", "cc", "avr-gcc", "avr-g++") if shutil.which(t) is None]
+    for path, package in (("/usr/include/simavr/sim_avr.h", "libsimavr-dev"),
+                          ("/usr/include/simavr/parts/uart_pty.h", "libsimavr-dev"),
+                          ("/usr/share/arduino/hardware/arduino/avr/cores/arduino", "arduino-core-avr")):
+        if not Path(path).exists():
+            missing.append(f"{path} ({package})")
+    return missing
+
+
+def _unavailable(reason: str) -> None:
+    if os.environ.get("CI") == "true":
+        pytest.fail(f"{reason}: CI must install simavr libsimavr-dev libsimavrparts1 libelf-dev "
+                    "gcc-avr binutils-avr avr-libc arduino-core-avr")
+    pytest.skip(reason)
+
+
+def _make(*args: str, timeout: float) -> None:
+    r = subprocess.run(["make", *args], capture_output=True, text=True, timeout=timeout,
+                       stdin=subprocess.DEVNULL)
+    assert r.returncode == 0, f"make {' '.join(args)} failed:\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
+
+
+@pytest.fixture(scope="module")
+def boardsim() -> Path:
+    """The harness, built."""
+    missing = _missing_tools()
+    if missing:
+        _unavailable("firmware simulation tools missing: " + ", ".join(missing))
+    _make("-C", str(SIM_DIR), timeout=300)
+    return BOARDSIM
+
+
+@pytest.fixture(scope="module")
+def elf(boardsim: Path) -> Path:
+    """The real firmware, built with the firmware's own Makefile."""
+    if not (FIRMWARE / "Makefile").exists():
+        _unavailable("firmware/Makefile is not there yet")
+    _make("-C", str(FIRMWARE), timeout=900)
+    assert ELF.exists(), f"make -C firmware did not produce {ELF}"
+    return ELF
+
+
+@pytest.fixture(scope="module")
+def motion_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("motion") / "segments.csv"
+    rows = ["t,gx,gy,gz,ax,ay,az,mx,my,mz"]
+    rows += [",".join(str(v) for v in (t, *g, *a, *m)) for t, g, a, m in SEGMENTS]
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+# ---------------------------------------------------------------- running the board
+
+
+class Board:
+    """A running boardsim process; `report()` stops it and returns its JSON report."""
+
+    def __init__(self, proc: subprocess.Popen, link: Path) -> None:
+        self.proc = proc
+        self.link = link
+
+    def report(self, timeout: float = 10) -> dict:
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+        out, err = self.proc.communicate(timeout=timeout)
+        assert self.proc.returncode == 0, err
+        return json.loads(out)
+
+
+@contextlib.contextmanager
+def running_board(boardsim: Path, elf: Path, tmp_path: Path, *args: str,
+                  seconds: float = 60) -> Iterator[Board]:
+    """boardsim in real time behind a pty linked at tmp_path/ttySIM; always stopped."""
+    link = tmp_path / "ttySIM"
+    cmd = [str(boardsim), str(elf), "--pty", str(link), "--json", "--seconds", str(seconds), *args]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            stdin=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 10
+        while not link.exists() and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.02)
+        if not link.exists():
+            proc.kill()
+            _, err = proc.communicate(timeout=10)
+            pytest.fail(f"boardsim made no pty link: {err}")
+        yield Board(proc, link)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate(timeout=10)
+
+
+def run_to_end(boardsim: Path, elf: Path, *args: str, timeout: float = 120) -> dict:
+    """boardsim without a pty, as fast as it goes, for a fixed simulated time; its report."""
+    r = subprocess.run([str(boardsim), str(elf), "--json", *args], capture_output=True, text=True,
+                       timeout=timeout, stdin=subprocess.DEVNULL)
+    assert r.returncode == 0, r.stderr
+    return json.loads(r.stdout)
+
+
+def segment_at(t: float) -> tuple | None:
+    """The motion segment in force at simulated time t, or None near a change."""
+    current = None
+    for seg in SEGMENTS:
+        if abs(t - seg[0]) < EDGE_S and seg[0] > 0:
+            return None
+        if t >= seg[0]:
+            current = seg
+    return current
+
+
+@pytest.fixture(scope="module")
+def stream(boardsim: Path, elf: Path, motion_csv: Path, tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """About 2.8 simulated seconds read through tracker.link.Link, then an IDENTIFY."""
+    tmp = tmp_path_factory.mktemp("stream")
+    with running_board(boardsim, elf, tmp, "--motion", str(motion_csv), "--interp", "hold",
+                       "--flex-mv", str(FLEX_MV)) as board:
+        with Link(LinkSettings(port=str(board.link), reconnect=False, rate_hz=RATE_HZ)) as link:
+            hello = link.hello
+            samples: list[P.RawSample] = []
+            end = time.monotonic() + 20
+            while time.monotonic() < end and (not samples or samples[-1].t < 2.8):
+                s = link.get(timeout=0.5)
+                if s is not None:
+                    samples.append(s)
+            link.hello = None
+            link.command(P.Command(P.FrameType.IDENTIFY))
+            end = time.monotonic() + 3
+            while link.hello is None and time.monotonic() < end:
+                time.sleep(0.01)
+            identified = link.hello
+            stats = link.stats()
+        report = board.report()
+    return {"hello": hello, "samples": samples, "identified": identified, "stats": stats,
+            "report": report}
+
+
+# ---------------------------------------------------------------- the tests
+
+
+def test_hello_names_the_board_and_its_sensors(stream):
+    h = stream["hello"]
+    assert h is not None, "no HELLO in the handshake"
+    assert h.protocol == P.PROTOCOL_VERSION
+    assert h.firmware == FIRMWARE_VERSION
+    assert h.imu_whoami == 0x71 and h.mag_whoami == 0x48
+    assert h.rate_hz == RATE_HZ and h.mode == P.Mode.RAW
+    assert h.acc_fs_g == 16 and h.gyr_fs_dps == 2000
+    assert h.errors == P.BoardError.NONE
+
+
+def test_identify_is_answered_with_a_hello(stream):
+    h = stream["identified"]
+    assert h is not None, "no HELLO after IDENTIFY"
+    assert (h.protocol, h.imu_whoami, h.mag_whoami, h.rate_hz) == (1, 0x71, 0x48, RATE_HZ)
+    assert h.streaming and h.mode == P.Mode.RAW
+
+
+def test_stream_is_clean(stream):
+    stats, samples = stream["stats"], stream["samples"]
+    assert len(samples) >= 400, f"only {len(samples)} samples"
+    assert all(isinstance(s, P.RawSample) for s in samples)
+    assert stats.crc_errors == 0 and stats.dropped == 0
+    seqs = [s.seq for s in samples]
+    assert all((b - a) % 65536 == 1 for a, b in zip(seqs, seqs[1:])), "gaps in seq"
+    assert stream["report"]["uart"]["bytes_lost"] == 0
+
+
+def test_frame_rate_is_the_setting_in_device_time(stream):
+    samples = stream["samples"]
+    t = [s.t_us for s in samples]
+    diffs = sorted(b - a for a, b in zip(t, t[1:]))
+    period_us = 1e6 / RATE_HZ
+    mean = (t[-1] - t[0]) / (len(t) - 1)
+    assert mean == pytest.approx(period_us, rel=0.01)
+    assert diffs[len(diffs) // 2] == pytest.approx(period_us, rel=0.01)
+    assert diffs[-1] < 1.5 * period_us and diffs[0] > 0.5 * period_us, (diffs[0], diffs[-1])
+
+
+def quantised(seg: tuple) -> tuple:
+    """The accelerometer and gyroscope counts of a segment, as tracker/board.py quantise makes them."""
+    _, gyr, acc, _ = seg
+    return tuple(counts(acc, acc_lsb(16)).tolist()), tuple(counts(gyr, gyr_lsb(2000)).tolist())
+
+
+def device_clock_offset(samples: list[P.RawSample]) -> float:
+    """Simulated time minus device time (PROTOCOL.md 7.3: the clock starts at clock_start).
+
+    Found where the second segment first shows; every other sample must then agree.
+    """
+    first = next((s for s in samples if (s.acc_counts, s.gyr_counts) == quantised(SEGMENTS[1])), None)
+    assert first is not None, "the second motion segment never showed"
+    return SEGMENTS[1][0] - first.t
+
+
+def test_counts_are_the_injected_motion_quantised(stream):
+    checked = set()
+    offset = device_clock_offset(stream["samples"])
+    assert 0 <= offset < 1.0, offset
+    for s in stream["samples"]:
+        seg = segment_at(s.t + offset)
+        if seg is None:
+            continue
+        t0, gyr, acc, mag = seg
+        assert (s.acc_fs_g, s.gyr_fs_dps) == (16, 2000)
+        assert s.acc_counts == tuple(counts(acc, acc_lsb(16)).tolist()), (s.t, s.acc_counts)
+        assert s.gyr_counts == tuple(counts(gyr, gyr_lsb(2000)).tolist()), (s.t, s.gyr_counts)
+        if s.mag_counts is not None:
+            assert s.mag_counts == tuple(counts(mag, P.MAG_UT_PER_COUNT).tolist()), (s.t, s.mag_counts)
+        checked.add(t0)
+    assert checked == {seg[0] for seg in SEGMENTS}, f"segments seen: {sorted(checked)}"
+    # The last segment is beyond full scale: the counts saturate as the chip's do.
+    last = [s for s in stream["samples"] if segment_at(s.t + offset) is SEGMENTS[-1]]
+    assert last and last[-1].gyr_counts[:2] == (32767, -32768)
+    assert last[-1].acc_counts[:2] == (32767, -32768)
+
+
+def test_magnetometer_is_read(stream):
+    mags = [s for s in stream["samples"] if s.mag_counts is not None]
+    assert len(mags) >= len(stream["samples"]) // 2
+    assert not any(s.mag_overflow for s in mags)
+
+
+def test_flex_is_the_injected_voltage(stream):
+    expected = round(FLEX_MV / 5000 * 1023)
+    flex = {s.flex_adc for s in stream["samples"]}
+    assert all(abs(f - expected) <= 1 for f in flex), (expected, sorted(flex))
+
+
+def test_linear_motion_is_interpolated_in_simulated_time(boardsim, elf, tmp_path):
+    """A ramp of gz, 0 -> 3 rad/s over 3 s: the counts follow it at the device clock's pace."""
+    csv = tmp_path / "ramp.csv"
+    csv.write_text("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.81\n3,0,0,3,0,0,9.81\n")
+    with running_board(boardsim, elf, tmp_path, "--motion", str(csv)) as board:
+        with Link(LinkSettings(port=str(board.link), reconnect=False)) as link:
+            samples = list(link.samples(1.5))
+        board.report()
+    assert len(samples) >= 200
+    t = [s.t for s in samples]
+    gz = [s.gyr_counts[2] for s in samples]
+    assert all(b >= a for a, b in zip(gz, gz[1:])), "the ramp is not monotonic"
+    n = len(t)
+    mt, mg = sum(t) / n, sum(gz) / n
+    slope = sum((a - mt) * (b - mg) for a, b in zip(t, gz)) / sum((a - mt) ** 2 for a in t)
+    assert slope * gyr_lsb(2000) == pytest.approx(1.0, rel=0.01)  # rad/s per second
+
+
+def test_armtracker_monitor_reads_the_simulated_board(boardsim, elf, tmp_path):
+    with running_board(boardsim, elf, tmp_path, "--flex-mv", str(FLEX_MV)) as board:
+        r = subprocess.run([sys.executable, "-m", "tracker", "monitor", "--port", str(board.link),
+                            "--seconds", "1.5", "--json"], capture_output=True, text=True,
+                           timeout=60, cwd=ROOT, stdin=subprocess.DEVNULL)
+        board.report()
+    assert r.returncode == 0, r.stderr
+    report = json.loads(r.stdout)
+    assert report["frames"] >= 200 and report["crc_errors"] == 0 and report["dropped"] == 0
+    assert report["hello"]["imu_whoami"] == 0x71 and report["hello"]["mag_whoami"] == 0x48
+    # Lying still: about 1 g on +z.
+    assert report["last"]["acc"][2] == pytest.approx(9.81, abs=0.01)
+
+
+def test_missing_imu_is_reported_about_once_a_second_and_the_board_keeps_running(
+        boardsim, elf, tmp_path):
+    hellos: list[tuple[float, P.Hello]] = []
+    decoder = P.FrameDecoder()
+    with running_board(boardsim, elf, tmp_path, "--no-imu") as board:
+        port = serial.Serial(str(board.link), P.DEFAULT_BAUD, timeout=0.05)
+        try:
+            start = time.monotonic()
+            asked = False
+            while time.monotonic() - start < 4.0:
+                for p in decoder.feed(port.read(256)):
+                    if isinstance(p, P.Hello):
+                        hellos.append((time.monotonic() - start, p))
+                if not asked and time.monotonic() - start > 2.5:
+                    port.write(P.encode_command(P.Command(P.FrameType.IDENTIFY)))
+                    asked = True
+        finally:
+            port.close()
+        report = board.report()
+    assert report["end"] == "signal" and report["simulated_s"] > 3.5
+    assert report["uart"]["raw"] == 0 and report["i2c"]["nacks"] > 0
+    assert decoder.stats.crc_errors == 0
+    assert len(hellos) >= 3, hellos
+    assert all(P.BoardError.IMU_MISSING in h.errors for _, h in hellos)
+    assert all(h.imu_whoami != 0x71 for _, h in hellos)
+    # About once a second (wall time here, the board runs in real time), plus the answer
+    # to IDENTIFY; the board never stops talking.
+    per_second = len(hellos) / report["simulated_s"]
+    assert 0.6 <= per_second <= 2.0, [round(t, 2) for t, _ in hellos]
+    assert hellos[-1][0] > 2.5, "nothing after IDENTIFY: the board hung"
+
+
+def test_cycles_per_sample_in_raw_mode(boardsim, elf, motion_csv):
+    r = run_to_end(boardsim, elf, "--seconds", "3", "--motion", str(motion_csv), "--interp", "hold",
+                   "--flex-mv", str(FLEX_MV))
+    print(json.dumps({k: r[k] for k in ("phases", "samples", "cycles_per_sample",
+                                        "cycles_per_sample_without_i2c_bus", "cpu_load")}, indent=1))
+    samples = r["samples"]
+    assert r["uart"]["raw"] == samples and samples >= 2 * RATE_HZ
+    assert r["uart"]["crc_errors"] == 0
+    for name in ("read", "compute", "send"):
+        phase = r["phases"][name]
+        assert abs(phase["count"] - samples) <= 2, (name, phase["count"], samples)
+    # The firmware's own cycles (simavr's I2C bus timing is not real, so bus time is apart).
+    assert 0 < r["cycles_per_sample_without_i2c_bus"] <= MAX_CYCLES_PER_SAMPLE
+
+
+# ---------------------------------------------------------------- the harness's own errors
+
+
+def _boardsim_fails(boardsim: Path, *args: str, words: str) -> None:
+    r = subprocess.run([str(boardsim), *args], capture_output=True, text=True, timeout=30,
+                       stdin=subprocess.DEVNULL)
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    assert words in r.stderr and r.stdout == "", r.stderr
+
+
+def test_missing_or_wrong_elf_is_a_clear_error(boardsim, tmp_path):
+    _boardsim_fails(boardsim, str(tmp_path / "nope.elf"), words="cannot open firmware")
+    text = tmp_path / "text.elf"
+    text.write_text("not a program\n")
+    _boardsim_fails(boardsim, str(text), words="is not an ELF file")
+    _boardsim_fails(boardsim, sys.executable, words="not AVR")
+
+
+@pytest.mark.parametrize("content, words", [
+    ("t,gx,gy\n0,1,2\n", "lacks column 'gz'"),
+    ("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,x\n", "'x' is not a finite number"),
+    ("t,gx,gy,gz,ax,ay,az\n1,0,0,0,0,0,9.8\n0.5,0,0,0,0,0,9.8\n", "does not increase"),
+    ("t,gx,gy,gz,ax,ay,az,mx\n0,0,0,0,0,0,9.8,1\n", "all of mx,my,mz"),
+    ("t,gx,gy,gz,ax,ay,az\n", "no data rows"),
+    ("", "empty file"),
+])
+def test_bad_motion_csv_is_a_clear_error(boardsim, tmp_path, content, words):
+    csv = tmp_path / "m.csv"
+    csv.write_text(content)
+    elf = tmp_path / "unused.elf"  # the motion is checked before the firmware is loaded
+    _boardsim_fails(boardsim, str(elf), "--motion", str(csv), words=words)
+    _boardsim_fails(boardsim, str(elf), "--motion", str(tmp_path / "none.csv"),
+                    words="cannot open motion file")
