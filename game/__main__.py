@@ -47,7 +47,8 @@ def display_available() -> bool:
     return True
 
 
-HEADLESS_ONLY = ("matches", "duration", "difficulty", "profile", "faults", "workers", "render", "pty", "json")
+HEADLESS_ONLY = ("matches", "duration", "difficulty", "profile", "faults", "workers", "endless", "render", "pty",
+                 "json")
 
 
 def cmd_play(args: argparse.Namespace) -> int:
@@ -86,7 +87,7 @@ def cmd_headless(args: argparse.Namespace) -> int:
         raise UsageError(f"--faults: {e}") from None
     jobs = configs(args.seed, args.matches or 1, duration_s=args.duration or 120.0,
                    difficulty=args.difficulty or "normal", profile=_profile(args.profile), faults=faults,
-                   render=args.render, pty=args.pty)
+                   endless=args.endless, render=args.render, pty=args.pty)
     try:
         report = run_matches(jobs, workers=args.workers or 1,
                              progress=lambda text: print(text, file=sys.stderr, flush=True))
@@ -162,6 +163,8 @@ def build_parser() -> argparse.ArgumentParser:
     h.add_argument("--profile", metavar="FILE.json", help="the simulated player (README lists the keys)")
     h.add_argument("--faults", metavar="SPEC", help="link faults, e.g. corrupt=0.01,drop=0.002,stall=0.5@20")
     h.add_argument("--workers", type=_positive, help="processes to spread the matches over (1)")
+    h.add_argument("--endless", action="store_true",
+                   help="zombies do no harm, so a match lasts its whole duration (soak runs)")
     h.add_argument("--render", action="store_true", help="draw every frame (dummy video driver)")
     h.add_argument("--pty", action="store_true", help="send the board's bytes through a real pty and pyserial")
     h.add_argument("--json", action="store_true", help="print the report as JSON")

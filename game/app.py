@@ -21,7 +21,7 @@ import pygame
 
 from tracker.link import LinkSettings, find_boards
 
-from .arena import Arena
+from .arena import Arena, ArenaSettings
 from .arena_model import Controls
 from .audio import Audio
 from .avatar import Avatar, BodySettings, Wearing
@@ -71,6 +71,7 @@ class Game:
     virtual_board: object = None  # the simulated board behind --virtual
     walker: Callable[[], Controls] | None = None  # who walks the player (None: the keyboard)
     on_launch: Callable[[GestureEvent], None] | None = None  # told of every launch (headless matches)
+    arena_settings: ArenaSettings | None = None  # the rounds' arena (None: the defaults)
 
     # -------------------------------------------------------- input
 
@@ -125,7 +126,7 @@ class Game:
     # -------------------------------------------------------- the round
 
     def new_round(self) -> None:
-        self.arena = Arena(seed=self.seed)
+        self.arena = Arena(self.arena_settings, seed=self.seed)
         self.gestures = GestureMachine(self.gesture_settings())
         self.avatar = Avatar(BodySettings(side=self.prefs.side), self.avatar.wearing)
 

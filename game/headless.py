@@ -49,6 +49,7 @@ from tracker.board import (AK8963_WHOAMI, FIRMWARE_VERSION, MPU9250_WHOAMI, Faul
                            FaultInjector, acc_lsb, counts, gyr_lsb)
 from tracker.sim import Motion, Simulator  # noqa: E402
 
+from .arena import ArenaSettings  # noqa: E402
 from .arena_model import Controls  # noqa: E402
 from .bot import DIFFICULTIES, Bot, Screen  # noqa: E402
 from .controls import SampleInput  # noqa: E402
@@ -78,6 +79,7 @@ class MatchConfig:
     difficulty: str = "normal"
     profile: PlayerProfile = PlayerProfile()
     faults: Faults = field(default_factory=Faults)
+    endless: bool = False  # zombies do no harm: the match lasts its whole duration (soak runs)
     render: bool = False  # draw every frame (the dummy video driver)
     pty: bool = False  # the bytes go through a real pty and pyserial
 
@@ -315,6 +317,8 @@ def run_match(config: MatchConfig, progress: Callable[[str], None] | None = None
         app = App(Preferences(input="keyboard", volume=0.0, music_volume=0.0), config_dir=Path(folder),
                   seed=seed, size=SIZE, draws=config.render)
         game = app.game
+        if config.endless:
+            game.arena_settings = ArenaSettings(contact_damage_per_s=0.0)
         source = WireInput(wire, Tracking(board=maker_calibration(profile, seed)))
         game.use_source(source)
         walking = [Controls()]

@@ -141,3 +141,10 @@ def test_samples_computed_ahead_are_redone_when_the_motion_changes():
     assert _board_bytes(2.05) != _board_bytes(2.05, gesture=False)  # and the gesture did change them
     with pytest.raises(RuntimeError, match="before samples already sent"):
         _board_bytes(2.9)
+
+
+def test_an_endless_match_lasts_its_duration_where_a_normal_one_ends():
+    normal = run_match(MatchConfig(seed=105, difficulty="easy", duration_s=100.0))
+    endless = run_match(MatchConfig(seed=105, difficulty="easy", duration_s=100.0, endless=True))
+    assert normal["game_over"] and normal["survived_s"] < 100.0
+    assert not endless["game_over"] and endless["survived_s"] == pytest.approx(100.0, abs=0.02)
