@@ -30,10 +30,9 @@ import numpy as np
 
 from tracker import protocol as P
 from tracker import quat as Q
-from tracker.board import quantise
 from tracker.calibration import BoardCalibration, Pose, six_pose_calibration
-from tracker.motion import SensorReading
 from tracker.sim import Motion, Simulator
+from tracker.sim_board import RATE_HZ, SimBoard
 
 from .avatar import Avatar, BodySettings
 from .gestures import GestureEvent, GestureMachine
@@ -42,7 +41,6 @@ from .pose import ArmPose
 from .tracking import Tracking
 from .wearing import arm_down_then_forward
 
-RATE_HZ = 200.0
 MATCH_BEFORE_S = 0.05
 MATCH_AFTER_S = 0.4
 POSE_WINDOW_S = 1.0  # the last second of each calibration hold is used
@@ -67,17 +65,12 @@ def board_stream(sim_session: Session, profile: PlayerProfile, seed: int) -> lis
     """The session as the host receives it: simulated, quantised, framed, sent, decoded."""
     sim = Simulator(profile.chain(), sim_session.motion, profile.sensor_errors(),
                     profile.flex_sensor(), seed=seed)
-    data = sim.simulate(sim_session.duration_s, RATE_HZ)
-    wire = bytearray()
-    for k in range(len(data.t)):
-        reading = SensorReading(tuple(data.acc[k, 0]), tuple(data.gyr[k, 0]), tuple(data.mag[k, 0]),
-                                0.0, int(data.flex_adc[k]), (1.0, 0.0, 0.0, 0.0))
-        wire += P.encode_raw(quantise(reading, float(data.t[k]), round(data.t[k] * 1e6), k & 0xFFFF,
-                                      16, 2000))
+    samples_due = round(sim_session.duration_s * RATE_HZ)
+    wire = SimBoard(sim, rate_hz=RATE_HZ).run_until((samples_due - 1) / RATE_HZ)
     decoder = P.FrameDecoder()
     samples: list[P.RawSample] = []
     for i in range(0, len(wire), CHUNK):
-        samples += decoder.feed(bytes(wire[i:i + CHUNK]))  # type: ignore[arg-type]
+        samples += decoder.feed(wire[i:i + CHUNK])  # type: ignore[arg-type]
     return samples
 
 

@@ -4,7 +4,7 @@ One match, frame by frame (``FRAME_HZ``, simulated time):
 
 1. The bot (:mod:`game.bot`) sees the screen and the arena. It presses keys,
    walks, and writes its arm's next moves into its motion script.
-2. The board (:class:`SimBoard`) runs its firmware loop up to the frame's
+2. The board (:class:`tracker.sim_board.SimBoard`) runs its firmware loop up to the frame's
    time. The sensor simulator (:mod:`tracker.sim`) measures the bot's arm
    at 200 Hz, with MPU-9250 errors and the flex circuit. Each sample is
    quantised and framed as the firmware does it. The injected link faults
@@ -45,9 +45,9 @@ os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
 
 from tracker import protocol as P  # noqa: E402
-from tracker.board import (AK8963_WHOAMI, FIRMWARE_VERSION, MPU9250_WHOAMI, Faults,  # noqa: E402
-                           FaultInjector, acc_lsb, counts, gyr_lsb)
+from tracker.board import Faults  # noqa: E402
 from tracker.sim import Motion, Simulator  # noqa: E402
+from tracker.sim_board import SimBoard  # noqa: E402
 
 from .arena import ArenaSettings  # noqa: E402
 from .arena_model import Controls  # noqa: E402
@@ -60,14 +60,9 @@ from .pose import ArmPose  # noqa: E402
 from .tracking import Tracking  # noqa: E402
 
 FRAME_HZ = 60  # the game's frame rate in simulated time
-RATE_HZ = 200  # the board's default sample rate
-BLOCK = 200  # samples the simulator computes ahead at once (1 s)
-STENCIL_S = 0.002  # a sample depends on the motion this close to it (the simulator's differences)
 SIZE = (640, 360)  # the dummy window's size when rendering
 PROGRESS_S = 60  # simulated seconds between progress lines within a match (one worker)
 MAX_SETUP_S = 90.0  # menu and calibration take at most this long, or the match is abandoned
-ACC_FS_G, GYR_FS_DPS = 16, 2000  # the firmware's default full scales
-Counts = tuple[tuple[int, ...], tuple[int, ...], tuple[int, ...], int]  # acc, gyr, mag, flex ADC
 
 
 @dataclass(frozen=True)
@@ -78,7 +73,7 @@ class MatchConfig:
     duration_s: float = 120.0  # play time (after the calibration) at most
     difficulty: str = "normal"
     profile: PlayerProfile = PlayerProfile()
-    faults: Faults = field(default_factory=Faults)
+    faults: Faults = Faults()
     endless: bool = False  # zombies do no harm: the match lasts its whole duration (soak runs)
     render: bool = False  # draw every frame (the dummy video driver)
     pty: bool = False  # the bytes go through a real pty and pyserial
@@ -91,101 +86,6 @@ class MatchConfig:
 
 
 # ----------------------------------------------------------------- the board
-
-
-@dataclass
-class BoardTally:
-    """What the simulated board sent and what the faults did to it."""
-
-    frames_sent: int = 0  # sample frames
-    frames_damaged: int = 0  # sample frames that lost or changed a byte
-    damaged_header_intact: int = 0  # of those, the header (sync, length, type) arrived whole: the CRC must fail
-    samples_stalled: int = 0  # samples not taken while the loop was frozen
-
-
-class SimBoard:
-    """The board's firmware loop in simulated time: the simulator's samples, quantised and framed.
-
-    Samples are computed ahead, ``block`` at a time (one call of the
-    simulator for many samples is far cheaper than many calls). When the
-    motion changes (``edits()`` gives the earliest time a change touches, inf
-    for none), the samples from there on are computed again; a change to
-    samples already sent is an error.
-    """
-
-    def __init__(self, sim: Simulator, edits: Callable[[], float] = lambda: math.inf,
-                 faults: Faults = Faults(), rate_hz: int = RATE_HZ, block: int = BLOCK) -> None:
-        self.stream = sim.stream(rate_hz)
-        self.edits = edits
-        self.rate_hz, self.block = rate_hz, block
-        self.faults = faults
-        self.injector = FaultInjector(faults)
-        self.tally = BoardTally()
-        self._readings: list[Counts] = []
-        self._first = 0  # sample index of _readings[0]
-        self._next = 0  # the next sample index to send
-        self._seq = 0
-
-    def hello(self) -> bytes:
-        """The hello frame the firmware sends at power-up."""
-        return P.encode_hello(P.Hello(P.PROTOCOL_VERSION, FIRMWARE_VERSION, MPU9250_WHOAMI, AK8963_WHOAMI,
-                                      self.rate_hz, P.Mode.RAW, True, ACC_FS_G, GYR_FS_DPS,
-                                      P.BoardError.NONE))
-
-    def run_until(self, t: float) -> bytes:
-        """The bytes the board sends for every sample due by ``t`` (seconds since power-up)."""
-        self._forget_edited()
-        out = bytearray()
-        while self._next <= t * self.rate_hz + 1e-9:
-            k = self._next
-            self._next += 1
-            ts = k / self.rate_hz
-            if self.faults.stalled(ts):
-                self.tally.samples_stalled += 1  # a frozen loop takes no sample: no sequence number
-                continue
-            out += self._send(self._frame(k, ts))
-        return bytes(out)
-
-    def _frame(self, k: int, t: float) -> bytes:
-        seq, self._seq = self._seq, (self._seq + 1) & 0xFFFF
-        acc, gyr, mag, flex = self._reading(k)
-        return P.encode_raw(P.RawSample(t, round(t * 1e6) & 0xFFFFFFFF, seq, acc, gyr, mag, flex,
-                                        ACC_FS_G, GYR_FS_DPS))
-
-    def _send(self, frame: bytes) -> bytes:
-        wire = self.injector.apply(frame)
-        tally = self.tally
-        tally.frames_sent += 1
-        if wire != frame:
-            tally.frames_damaged += 1
-            tally.damaged_header_intact += wire[:P.HEADER_SIZE] == frame[:P.HEADER_SIZE]
-        return wire
-
-    def _forget_edited(self) -> None:
-        """Drop the samples computed ahead that a change of the motion touches."""
-        edited = self.edits()
-        if edited == math.inf:
-            return
-        k = max(0, math.floor((edited - STENCIL_S) * self.rate_hz))  # the first sample it touches
-        if k < self._next:
-            raise RuntimeError(f"the motion changed at {edited:.4f} s, before samples already sent")
-        del self._readings[max(0, k - self._first):]
-
-    def _reading(self, k: int) -> Counts:
-        i = k - self._first
-        if i >= len(self._readings):
-            self._first = k
-            self._readings = self._compute(k, k + self.block)
-            i = 0
-        return self._readings[i]
-
-    def _compute(self, k0: int, k1: int) -> list[Counts]:
-        """Samples k0..k1-1 as the MPU-9250 and the ADC read them (:func:`tracker.board.quantise`'s rule)."""
-        data = self.stream.block(k0, k1)
-        acc = counts(data.acc[:, 0], acc_lsb(ACC_FS_G)).tolist()
-        gyr = counts(data.gyr[:, 0], gyr_lsb(GYR_FS_DPS)).tolist()
-        mag = counts(data.mag[:, 0], P.MAG_UT_PER_COUNT).tolist()
-        return [(tuple(a), tuple(g), tuple(m), int(f)) for a, g, m, f in zip(acc, gyr, mag, data.flex_adc)]
 
 
 # ----------------------------------------------------------------- the wire

@@ -64,7 +64,7 @@ class BoardSettings:
             self.rate_hz = LEGACY_RATE_HZ
 
 
-@dataclass
+@dataclass(frozen=True)
 class Faults:
     """Faults injected into the byte stream the board sends (seeded).
 
@@ -265,9 +265,7 @@ class VirtualBoard:
     def hello(self) -> P.Hello:
         """The hello frame the firmware would send now."""
         s, st = self.settings, self._state
-        return P.Hello(P.PROTOCOL_VERSION, FIRMWARE_VERSION, MPU9250_WHOAMI,
-                       AK8963_WHOAMI if self._has_mag() else 0, st.rate_hz, st.mode,
-                       st.streaming, s.acc_fs_g, s.gyr_fs_dps, s.errors)
+        return hello(st.rate_hz, st.mode, st.streaming, s.acc_fs_g, s.gyr_fs_dps, s.errors, self._has_mag())
 
     def _has_mag(self) -> bool:
         return self.motion.reading(0.0).mag is not None
@@ -417,6 +415,13 @@ class VirtualBoard:
 def _default_motion(rate_hz: float) -> MotionSource:
     from .sim import arm_source  # the simulator is heavier than the board; load it when needed
     return arm_source(rate_hz)
+
+
+def hello(rate_hz: int, mode: P.Mode, streaming: bool, acc_fs_g: int, gyr_fs_dps: int,
+          errors: P.BoardError, has_mag: bool) -> P.Hello:
+    """The HELLO our firmware sends: its version, an MPU-9250 (and AK8963 if present), its settings."""
+    return P.Hello(P.PROTOCOL_VERSION, FIRMWARE_VERSION, MPU9250_WHOAMI, AK8963_WHOAMI if has_mag else 0,
+                   rate_hz, mode, streaming, acc_fs_g, gyr_fs_dps, errors)
 
 
 def counts(values: ArrayLike, lsb: float) -> NDArray[np.int64]:

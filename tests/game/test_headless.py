@@ -113,7 +113,7 @@ def _board_bytes(edit_after: float | None, gesture: bool = True) -> bytes:
     """A board on a script that gets a gesture from 2.3 s: planned before the start, or only after
     ``edit_after`` seconds were sent (the samples to 3 s are computed ahead by then, so those the
     gesture touches must be computed again)."""
-    from game.headless import SimBoard
+    from tracker.sim_board import SimBoard
     from game.motion_model import PlayerProfile, Script
     from tracker.sim import Motion, Simulator
     profile = PlayerProfile()
