@@ -8,12 +8,11 @@ mirror the C ones field for field, so ctypes lays them out as the host compiler 
 from __future__ import annotations
 
 import ctypes as C
-import os
 import shutil
 import subprocess
 from pathlib import Path
 
-import pytest
+from ..unavailable import unavailable
 
 REPO = Path(__file__).resolve().parents[2]
 FIRMWARE = REPO / "firmware"
@@ -22,9 +21,7 @@ FIRMWARE = REPO / "firmware"
 def require(ok: bool, message: str) -> None:
     """Skip unless ``ok``, except under CI (CI=true), which installs everything and must fail."""
     if not ok:
-        if os.environ.get("CI") == "true":
-            pytest.fail(f"{message}; CI must install it")
-        pytest.skip(message)
+        unavailable(message, "it must be installed (.ci/run)")
 
 
 def require_tool(tool: str, why: str) -> None:

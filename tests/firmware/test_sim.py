@@ -30,6 +30,8 @@ from tracker import protocol as P
 from tracker.board import FIRMWARE_VERSION, acc_lsb, counts, gyr_lsb
 from tracker.link import Link, LinkSettings
 
+from ..unavailable import unavailable
+
 ROOT = Path(__file__).resolve().parents[2]
 FIRMWARE = ROOT / "firmware"
 ELF = FIRMWARE / "build" / "energyball.elf"
@@ -65,10 +67,8 @@ def _missing_tools() -> list[str]:
 
 
 def _unavailable(reason: str) -> None:
-    if os.environ.get("CI") == "true":
-        pytest.fail(f"{reason}: CI must install simavr libsimavr-dev libsimavrparts1 libelf-dev "
-                    "gcc-avr binutils-avr avr-libc arduino-core-avr")
-    pytest.skip(reason)
+    unavailable(reason, "these must be installed: simavr libsimavr-dev libsimavrparts1 libelf-dev "
+                "gcc-avr binutils-avr avr-libc arduino-core-avr")
 
 
 def _make(*args: str, timeout: float) -> None:

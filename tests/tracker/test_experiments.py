@@ -10,7 +10,6 @@ two; white noise hurts the switching filter more than the Madgwick-type one.
 
 import json
 import math
-import os
 import sys
 
 import numpy as np
@@ -21,6 +20,8 @@ from tracker import sim
 from tracker.experiments import (ALGORITHMS, SERIES, finger_grasp, flexion_angle, gravity_angle,
                                  integrated_angle, plot_finger_grasp, plot_static_drift,
                                  rms_error_deg, static_drift)
+
+from ..unavailable import unavailable
 
 MINUTES = 1.0
 BIASES_DPS = (0.05, 0.1, 0.2)
@@ -193,9 +194,7 @@ def require_matplotlib() -> None:
     try:
         import matplotlib  # noqa: F401
     except ImportError:
-        if os.environ.get("CI") == "true":
-            pytest.fail("matplotlib is missing in CI: install the '.[plot]' extra")
-        pytest.skip("matplotlib is not installed (pip install '.[plot]')")
+        unavailable("matplotlib is not installed (pip install '.[plot]')", "the '.[plot]' extra must be installed")
 
 
 def test_plots_are_written_as_png(drift, grasp, tmp_path):
