@@ -46,7 +46,7 @@ os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
 
 from tracker import protocol as P  # noqa: E402
 from tracker.board import Faults  # noqa: E402
-from tracker.sim import Motion, Simulator  # noqa: E402
+from tracker.sim import Simulator  # noqa: E402
 from tracker.sim_board import SimBoard  # noqa: E402
 
 from .arena import ArenaSettings  # noqa: E402
@@ -207,7 +207,7 @@ def run_match(config: MatchConfig, progress: Callable[[str], None] | None = None
     wall0 = time.perf_counter()
     profile, seed = config.profile, config.seed
     bot = Bot(DIFFICULTIES[config.difficulty], profile, seed)
-    sim = Simulator(profile.chain(), Motion(bot.script.root, bot.script.joints, bot.script.pose), profile.sensor_errors(),
+    sim = Simulator(profile.chain(), bot.script.motion, profile.sensor_errors(),
                     profile.flex_sensor(), seed=seed)
     board = SimBoard(sim, bot.script.take_edits, replace(config.faults, seed=seed))
     wire = PtyWire() if config.pty else MemoryWire()

@@ -654,10 +654,15 @@ class Script:
         self._keyframes.forget_before(t)
         self._waves = [w for w in self._waves if w.t1 > t]
 
+    @property
+    def motion(self) -> Motion:
+        """The script as a live :class:`tracker.sim.Motion`: segments added later change it."""
+        return Motion(self.root, self.joints, self.pose)
+
     def build(self) -> Session:
         """The session so far; later segments added to this script do not change it."""
         frozen = copy.deepcopy(self)
-        return Session(Motion(frozen.root, frozen.joints, frozen.pose), self.now, list(self.launches),
+        return Session(frozen.motion, self.now, list(self.launches),
                        list(self.idle_intervals), self.calibration_intervals, list(self.segments))
 
 

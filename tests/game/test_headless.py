@@ -115,10 +115,10 @@ def _board_bytes(edit_after: float | None, gesture: bool = True) -> bytes:
     gesture touches must be computed again)."""
     from tracker.sim_board import SimBoard
     from game.motion_model import PlayerProfile, Script
-    from tracker.sim import Motion, Simulator
+    from tracker.sim import Simulator
     profile = PlayerProfile()
     script = Script(profile, seed=9)
-    sim = Simulator(profile.chain(), Motion(script.root, script.joints, script.pose), profile.sensor_errors(),
+    sim = Simulator(profile.chain(), script.motion, profile.sensor_errors(),
                     profile.flex_sensor(), seed=9)
     board = SimBoard(sim, script.take_edits)
 

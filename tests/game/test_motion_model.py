@@ -281,7 +281,7 @@ def test_a_stream_of_a_script_that_goes_on_keeps_the_samples_already_taken():
     profile = PlayerProfile()
     script = Script(profile, seed=2)
     script.idle(3.0)
-    live = Motion(script.root, script.joints, script.pose)
+    live = script.motion
     t = np.linspace(0.0, 3.0, 101)
     root, joints = live.at(t)
     assert np.array_equal(root, script.root(t)) and np.array_equal(joints, script.joints(t))
