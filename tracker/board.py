@@ -111,7 +111,7 @@ class Faults:
 
     def stalled(self, t: float) -> bool:
         """Whether the board's loop is frozen at board time ``t``."""
-        return any(at <= t < at + seconds for at, seconds in self.stalls)
+        return bool(self.stalls) and any(at <= t < at + seconds for at, seconds in self.stalls)
 
 
 class FaultInjector:

@@ -12,7 +12,7 @@ from game.motion_model import (
     session)
 from game.pose import ArmPose
 from tracker import quat as Q
-from tracker.sim import Motion, Simulator, arm_chain, mpu9250
+from tracker.sim import Simulator, arm_chain, mpu9250
 
 STILL = PlayerProfile(tremor_deg=0.0)
 
