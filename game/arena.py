@@ -472,20 +472,19 @@ class Arena:
         None. A NaN charge is 0, and the charge is clamped to 0..1. No ball
         after the game is over.
         """
-        origin, direction = _finite_vec(origin), _finite_vec(direction)
-        if self.game_over or origin is None or direction is None:
+        start, d = _finite_vec(origin), _finite_vec(direction)
+        if self.game_over or start is None or d is None:
             return None
-        norm = math.sqrt(direction[0] ** 2 + direction[1] ** 2 + direction[2] ** 2)
+        norm = math.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
         if not norm > 1e-9:
             return None
         charge = _charge(charge)
         speed = self.settings.ball_speed(charge) / norm
-        ball = Ball(position=origin, velocity=(direction[0] * speed, direction[1] * speed, direction[2] * speed),
-                    charge=charge)
-        ball.trail.append(origin)
+        ball = Ball(position=start, velocity=(d[0] * speed, d[1] * speed, d[2] * speed), charge=charge)
+        ball.trail.append(start)
         self.balls.append(ball)
         self.shots += 1
-        self._pending.append(ArenaEvent("launch", origin, charge))
+        self._pending.append(ArenaEvent("launch", start, charge))
         return ball
 
     def hold(self, position: Vec3, state: str, charge: float) -> None:
@@ -494,9 +493,9 @@ class Arena:
         state = state.value if isinstance(state, Enum) else state
         if state not in HELD_STATES:
             raise ValueError(f"state must be one of {', '.join(HELD_STATES)}, not {state!r}")
-        position = _finite_vec(position)
-        if position is not None:
-            self.held.position = position
+        finite = _finite_vec(position)
+        if finite is not None:
+            self.held.position = finite
         self.held.state = state
         self.held.charge = _charge(charge)
         self.held.visible = state != "fired"  # "fired": the ball has gone, the arm is empty
@@ -607,12 +606,12 @@ class Arena:
         """A zombie of the current wave on the arena's edge, clear of the player."""
         s, rng, p = self.settings, self.rng, self.player
         radius = s.arena_radius_m
-        best = None
+        best = (-1.0, 0.0, 0.0)  # (gap, x, y): any spot beats it
         for _ in range(8):
             angle = float(rng.uniform(0.0, TAU))
             x, y = radius * math.cos(angle), radius * math.sin(angle)
             gap = math.hypot(x - p.x, y - p.y)
-            if best is None or gap > best[0]:
+            if gap > best[0]:
                 best = (gap, x, y)
             if gap >= s.spawn_clearance_m:
                 break

@@ -202,8 +202,8 @@ class Avatar:
 
     def _chain(self, parent_rot: Quat, q_upper: Quat) -> Quat:
         """initRotation * parent.rotation * inertialRotation, inertialRotation = q_WS * q_SB."""
-        inertial = q.mul(tuple(q_upper), tuple(self.wearing.mount))
-        return q.normalize(q.mul(q.mul(tuple(self.wearing.init), parent_rot), inertial))
+        inertial = q.mul(q_upper, self.wearing.mount)
+        return q.normalize(q.mul(q.mul(self.wearing.init, parent_rot), inertial))
 
     def end_of(self, name: str) -> Vec:
         """Where a bone ends: its joint plus its length along its own -z."""

@@ -357,7 +357,7 @@ class GestureMachine:
             return self._spinning(sample)
         if m.flexed.step(sample.flex > s.flex_on_deg, sample.t, s.flex_dwell_s):
             m.spin_start, m.release = m.flexed.since, sample  # type: ignore[assignment]
-            kind = "spin" if m.state is GestureState.LOADING else "reload"
+            kind: EventKind = "spin" if m.state is GestureState.LOADING else "reload"
             return [self._enter(GestureState.SPINNING, kind)]
         return []
 

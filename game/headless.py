@@ -201,7 +201,7 @@ def run_match(config: MatchConfig, progress: Callable[[str], None] | None = None
     """
     import pygame
 
-    from .app import App, Calibration, GameOver, Menu, Play
+    from .app import App, GameOver, Play
     from .preferences import Preferences
 
     wall0 = time.perf_counter()
@@ -244,7 +244,7 @@ def run_match(config: MatchConfig, progress: Callable[[str], None] | None = None
                              f"{t / (time.perf_counter() - wall0):.0f}x")
                 frame += 1
                 t = frame / FRAME_HZ
-                view = _screen(screen, Menu, Calibration, Play, GameOver)
+                view = _screen(screen)
                 action = bot.act(t, view, game.arena, game.avatar.world_pos[f"{game.avatar.body.side}_upper_arm"])
                 walking[0] = action.controls
                 wire.write(board.run_until(t))
@@ -258,11 +258,13 @@ def run_match(config: MatchConfig, progress: Callable[[str], None] | None = None
     return _report(config, bot, board, source, game.arena, seen, time.perf_counter() - wall0)
 
 
-def _screen(screen: object, menu: type, calibration: type, play: type, game_over: type) -> Screen:
+def _screen(screen: object) -> Screen:
     """What the bot sees of the app's current screen."""
-    if isinstance(screen, calibration):
+    from .app import Calibration, GameOver, Menu, Play
+
+    if isinstance(screen, Calibration):
         return Screen("calibration", screen.step)
-    names = {menu: "menu", play: "play", game_over: "game_over"}
+    names: dict[type, str] = {Menu: "menu", Play: "play", GameOver: "game_over"}
     return Screen(next((n for cls, n in names.items() if isinstance(screen, cls)), type(screen).__name__))
 
 

@@ -60,6 +60,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from tracker import quat as Q
 from tracker.flex import FlexSensor
+from tracker.fusion.qmath import as_quat, as_vec
 from tracker.sim import Chain, Motion, SensorErrors, arm_chain, mpu9250
 
 from .avatar import Wearing
@@ -161,8 +162,7 @@ class PlayerProfile:
     def chain(self) -> Chain:
         """:func:`tracker.sim.arm_chain` for this arm, the IMU at the elbow end, worn by :meth:`mount`."""
         base = arm_chain(self.upper_arm_m, self.forearm_m, sensor_m=self.upper_arm_m)
-        mount = tuple(float(v) for v in self.mount())
-        return replace(base, sensors=(replace(base.sensors[0], mount=mount),))
+        return replace(base, sensors=(replace(base.sensors[0], mount=as_quat(self.mount())),))
 
     def flex_sensor(self) -> FlexSensor:
         return FlexSensor(straight_ohm=self.flex_straight_ohm, bent_ohm=self.flex_bent_ohm)
@@ -288,7 +288,7 @@ class _Keyframes:
         return self._segments(t)
 
 
-def _sine(amplitude: ArrayLike, freq_hz: ArrayLike, phase: ArrayLike, t: Array) -> Array:
+def _sine(amplitude: Array | float, freq_hz: Array | float, phase: Array | float, t: Array) -> Array:
     """amplitude sin(2 pi freq t + phase)."""
     return amplitude * np.sin(2 * np.pi * freq_hz * t + phase)
 
@@ -525,7 +525,7 @@ class Script:
             t = self._move(t, duration, flex=straight)  # the launch
             fraction = (bent - self.threshold_deg) / (bent - straight)
             t_cross = t_go + duration * _minimum_jerk_inverse(fraction)
-            launches.append(TrueLaunch(t_go, t_cross, tuple(float(v) for v in aim), t_go - t_flex))
+            launches.append(TrueLaunch(t_go, t_cross, as_vec(aim), t_go - t_flex))
         t += self._dur(rng, 0.2, 0.5)
         t = self._move(t, self._reach_time(rng, _angle_deg(pointing, np.array([0.0, 0.0, -1.0]))),
                        az=0.0, el=0.0, tw=0.0, flex=self.rest_flex)

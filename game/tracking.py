@@ -19,6 +19,7 @@ from tracker import protocol as P
 from tracker.calibration import BiasResult, BoardCalibration, startup_bias
 from tracker.flex import FlexCalibration, FlexTracker
 from tracker.fusion.default import DefaultFilter
+from tracker.fusion.qmath import as_vec
 
 from .pose import ArmPose
 
@@ -49,7 +50,7 @@ class Tracking:
     def feed(self, sample: P.RawSample | P.FusedSample) -> ArmPose:
         """The arm pose after one sample."""
         if isinstance(sample, P.FusedSample):
-            return ArmPose(tuple(sample.q), sample.flex_deg, sample.t)
+            return ArmPose(sample.q, sample.flex_deg, sample.t)
         t = sample.t
         dt = self._step(t)
         acc, gyr, mag = self.board.apply(sample)
@@ -79,7 +80,7 @@ class Tracking:
         gyr = np.array([s.gyr for s in raw]) - self.board.gyro_bias
         acc = np.array([s.acc for s in raw])
         result = startup_bias(t, gyr, acc)
-        bias = tuple(float(b) for b in result.bias) if result.ok else self.filter.get_state().bias
+        bias = as_vec(result.bias) if result.ok else self.filter.get_state().bias
         self.reset()
         state = self.filter.get_state()
         state.bias = bias

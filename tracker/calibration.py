@@ -176,7 +176,7 @@ class RestDetector:
         """Forget everything; the next sample starts afresh."""
         self._state = RestState()
 
-    def update(self, gyr: Sequence[float], acc: Sequence[float], dt: float) -> bool:
+    def update(self, gyr: Sequence[float] | Array, acc: Sequence[float] | Array, dt: float) -> bool:
         """Feed one sample (rad/s, m/s^2, seconds since the last); whether the board is at rest."""
         s, p = self._state, self.params
         gx, gy, gz = float(gyr[0]), float(gyr[1]), float(gyr[2])
@@ -186,13 +186,16 @@ class RestDetector:
                 and -inf < ay < inf and -inf < az < inf and 0.0 < dt < inf):
             s.still_for, s.rest = 0.0, False
             return False
-        n = periods(dt, s.dt) if s.gyr_lp is not None else 0  # > 1: samples were lost
-        if s.gyr_lp is None:
-            s.gyr_lp, s.acc_lp, s.dt = LowPass2.design(p.tau, dt), LowPass2.design(p.tau, dt), dt
+        gyr_lp, acc_lp = s.gyr_lp, s.acc_lp
+        n = periods(dt, s.dt) if gyr_lp is not None else 0  # > 1: samples were lost
+        if gyr_lp is None or acc_lp is None:
+            gyr_lp, acc_lp = s.gyr_lp, s.acc_lp = LowPass2.design(p.tau, dt), LowPass2.design(p.tau, dt)
+            s.dt = dt
         elif not n:  # a new sample rate: keep what was learnt
-            s.gyr_lp, s.acc_lp, s.dt = s.gyr_lp.redesigned(p.tau, dt), s.acc_lp.redesigned(p.tau, dt), dt
+            gyr_lp, acc_lp = s.gyr_lp, s.acc_lp = gyr_lp.redesigned(p.tau, dt), acc_lp.redesigned(p.tau, dt)
+            s.dt = dt
         n = max(n, 1)
-        (lx, ly, lz), (mx, my, mz) = s.gyr_lp.held((gx, gy, gz), n), s.acc_lp.held((ax, ay, az), n)
+        (lx, ly, lz), (mx, my, mz) = gyr_lp.held((gx, gy, gz), n), acc_lp.held((ax, ay, az), n)
         ux, uy, uz = gx - lx, gy - ly, gz - lz  # the gyroscope's deviation from its low-pass
         vx, vy, vz = ax - mx, ay - my, az - mz  # the accelerometer's
         r = p.gyr_max_rate  # the low-passed rate below it on every axis (finite here: a
@@ -346,7 +349,7 @@ class ContinuousBias:
     def update(self, gyr: ArrayLike, acc: ArrayLike, dt: float) -> Array:
         """Feed one sample; the bias-corrected rate omega_B = omega_0 - b (seed 002 eq. 2)."""
         g = _vec3(gyr)
-        if self._detector.update(g - self._bias, acc, dt):
+        if self._detector.update(g - self._bias, _vec3(acc), dt):
             self._bias += _lowpass_gain(dt, self.params.tau) * (g - self._bias)
         return g - self._bias
 
@@ -678,7 +681,9 @@ class BoardCalibration:
                              f"or '-' (see make_board_id)")
         for f in _array_fields():
             value = np.array(getattr(self, f.name), dtype=np.float64)
-            shape = np.shape(f.default_factory())  # type: ignore[misc]
+            factory = f.default_factory
+            assert callable(factory)  # every array field has a default factory
+            shape = np.shape(factory())
             if value.shape != shape or not np.all(np.isfinite(value)):
                 raise ValueError(f"{f.name} must be {' x '.join(map(str, shape))} finite numbers")
             value.flags.writeable = False

@@ -25,7 +25,7 @@ import re
 import struct
 from dataclasses import dataclass, field
 from enum import IntEnum, IntFlag
-from typing import NamedTuple, Union
+from typing import Any, Callable, NamedTuple, Union
 
 SYNC = b"\xa5\x5a"
 HEADER_SIZE = 4  # sync (2) + len + type
@@ -114,7 +114,7 @@ RAW_FRAME_SIZE = HEADER_SIZE + _RAW.size + CRC_SIZE
 _RAW_TYPE = int(FrameType.RAW)  # a plain int compares faster than the enum member
 
 
-def crc16(data: bytes, crc: int = 0xFFFF) -> int:
+def crc16(data: bytes | bytearray, crc: int = 0xFFFF) -> int:
     """CRC-16/CCITT-FALSE of ``data`` (check value of b"123456789" is 0x29B1)."""
     return binascii.crc_hqx(data, crc)
 
@@ -336,8 +336,9 @@ def encode_command(c: Command) -> bytes:
 
 def encode(p: Packet) -> bytes:
     """Encode any packet."""
-    encoders = {RawSample: encode_raw, FusedSample: encode_fused, Hello: encode_hello,
-                Ack: encode_ack, Command: encode_command}
+    encoders: dict[type, Callable[[Any], bytes]] = {
+        RawSample: encode_raw, FusedSample: encode_fused, Hello: encode_hello,
+        Ack: encode_ack, Command: encode_command}
     return encoders[type(p)](p)
 
 
@@ -517,13 +518,13 @@ class TextDecoder:
                 self._in_long_line = False
             else:
                 self.stats.bytes_skipped += len(rest)
-                rest = b""
+                rest = bytearray()
         if len(rest) > MAX_LINE:
             self.stats.bad_lines += 1
             self.stats.bytes_skipped += len(rest)
-            rest = b""
+            rest = bytearray()
             self._in_long_line = True
-        self._buf = bytearray(rest)
+        self._buf = rest
         out = []
         for line in lines:
             sample = self._line(line, host_t)
@@ -534,7 +535,7 @@ class TextDecoder:
                 out.append(sample)
         return out
 
-    def _line(self, line: bytes, host_t: float | None) -> FusedSample | None:
+    def _line(self, line: bytes | bytearray, host_t: float | None) -> FusedSample | None:
         numbers = _NUMBER.findall(line)
         if len(numbers) != 5 or len(line) > MAX_LINE:
             return None
@@ -548,7 +549,8 @@ class TextDecoder:
         self.stats.frames += 1
         self._seq = (self._seq + 1) & 0xFFFF
         t = host_t if host_t is not None else 0.0
-        return FusedSample(t, None, self._seq, tuple(c / norm for c in q), values[4], host_t)
+        w, x, y, z = (c / norm for c in q)
+        return FusedSample(t, None, self._seq, (w, x, y, z), values[4], host_t)
 
 
 def format_text_line(s: FusedSample) -> bytes:

@@ -23,7 +23,7 @@ RATE_HZ = BoardSettings.rate_hz  # the firmware's defaults
 ACC_FS_G, GYR_FS_DPS = BoardSettings.acc_fs_g, BoardSettings.gyr_fs_dps
 BLOCK = 200  # samples the simulator computes ahead at once (1 s)
 STENCIL_S = 0.002  # a sample depends on the motion this close to it (the simulator's differences)
-Counts = tuple[tuple[int, ...], tuple[int, ...], tuple[int, ...], int]  # acc, gyr, mag, flex ADC
+Counts = tuple[tuple[int, int, int], tuple[int, int, int], tuple[int, int, int], int]  # acc, gyr, mag, flex ADC
 
 
 @dataclass
@@ -117,4 +117,5 @@ class SimBoard:
         acc = counts(data.acc[:, 0], acc_lsb(ACC_FS_G)).tolist()
         gyr = counts(data.gyr[:, 0], gyr_lsb(GYR_FS_DPS)).tolist()
         mag = counts(data.mag[:, 0], P.MAG_UT_PER_COUNT).tolist()
-        return [(tuple(a), tuple(g), tuple(m), int(f)) for a, g, m, f in zip(acc, gyr, mag, data.flex_adc)]
+        return [((a[0], a[1], a[2]), (g[0], g[1], g[2]), (m[0], m[1], m[2]), int(f))
+                for a, g, m, f in zip(acc, gyr, mag, data.flex_adc)]

@@ -22,7 +22,7 @@ import copy
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import ClassVar, Generic, Sequence, TypeVar
+from typing import ClassVar, Generic, Protocol, Sequence, TypeVar
 
 import numpy as np
 
@@ -34,6 +34,8 @@ PLAUSIBLE = 100.0  # readings beyond this many full scales are corrupt, not moti
 _GYR_LIMIT = GYR_SATURATION * PLAUSIBLE
 _ACC_LIMIT = ACC_SATURATION * PLAUSIBLE
 _MAG_LIMIT = 1e4  # uT: the Earth's field is about 25-65
+
+Reading = Sequence[float] | np.ndarray  # one 3-axis reading: a tuple, a list or an array
 
 
 @dataclass(slots=True)
@@ -53,8 +55,14 @@ class Flags:
     mag_rejected: bool = False  # magnetometer judged disturbed and not used (where supported)
 
 
+class _HasQuat(Protocol):
+    """What every filter state has: the current estimate."""
+
+    q: Quat
+
+
 P = TypeVar("P")
-S = TypeVar("S")
+S = TypeVar("S", bound=_HasQuat)
 
 
 class Filter(ABC, Generic[P, S]):
@@ -101,8 +109,8 @@ class Filter(ABC, Generic[P, S]):
 
     # ------------------------------------------------------------ updating
 
-    def update(self, gyr: Sequence[float], acc: Sequence[float] | None,
-               mag: Sequence[float] | None = None, dt: float = 0.005) -> Quat:
+    def update(self, gyr: Reading, acc: Reading | None, mag: Reading | None = None,
+               dt: float = 0.005) -> Quat:
         """Take one sample (rad/s, m/s^2, uT, seconds) and return the new q_WS."""
         self.flags = flags = Flags()
         # _finite3 written out for the gyroscope (the one input always present) and the
@@ -149,7 +157,7 @@ class Filter(ABC, Generic[P, S]):
         return out
 
 
-def _finite3(v: Sequence[float] | None, limit: float) -> Vec | None:
+def _finite3(v: Reading | None, limit: float) -> Vec | None:
     """``v`` as a 3-tuple of floats, or None if absent, not finite or beyond ``limit``."""
     if v is None:
         return None

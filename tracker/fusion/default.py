@@ -117,12 +117,14 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
     def _detect_rest(self, gyr: Vec, acc: Vec, dt: float) -> None:
         """Rest when gyro and accelerometer stay near their low-passed values (VQF sec. 3.3)."""
         s, p = self._state, self.params
+        assert s.rest is not None  # made by _design before the first sample
         rest = s.rest.update(gyr, acc, dt)
         self.flags.rest = rest
-        if rest:
+        gyr_lp = s.rest.gyr_lp
+        if rest and gyr_lp is not None:
             # At rest the low-passed gyro is the bias (VQF sec. 3.3): follow it quickly.
             k = min(1.0, dt / p.bias_tau_rest)
-            (bx, by, bz), (gx, gy, gz) = s.bias, s.rest.gyr_lp
+            (bx, by, bz), (gx, gy, gz) = s.bias, gyr_lp
             s.bias = self._clamp(bx + k * (gx - bx), by + k * (gy - by), bz + k * (gz - bz))
 
     def _clamp(self, x: float, y: float, z: float) -> Vec:
@@ -142,6 +144,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         gravity yet.
         """
         s = self._state
+        assert s.acc_lp is not None  # made by _design before the first sample
         a_i = s.acc_lp.held(rotate(s.q_gyr, acc), periods)
         ax, ay, az = rotate(s.q_inc, a_i)
         n = math.sqrt(ax * ax + ay * ay + az * az)

@@ -17,6 +17,7 @@ paper equation a call stands for.
 from __future__ import annotations
 
 import math
+from typing import Iterable
 
 Quat = tuple[float, float, float, float]
 Vec = tuple[float, float, float]
@@ -31,6 +32,12 @@ _HALF_PI = 0.5 * math.pi
 
 
 # ------------------------------------------------------------ quaternions
+
+
+def as_quat(q: Iterable[float]) -> Quat:
+    """Any four numbers (a list, an array row, a tuple of numpy floats) as a Quat of floats."""
+    w, x, y, z = q
+    return (float(w), float(x), float(y), float(z))
 
 def mul(p: Quat, q: Quat) -> Quat:
     """Hamilton product p * q."""
@@ -146,6 +153,12 @@ def slerp(p: Quat, q: Quat, t: float) -> Quat:
 
 
 # ------------------------------------------------------------ vectors
+
+def as_vec(v: Iterable[float]) -> Vec:
+    """Any three numbers (a list, an array row, a tuple of numpy floats) as a Vec of floats."""
+    x, y, z = v
+    return (float(x), float(y), float(z))
+
 
 def norm3(v: Vec) -> float:
     return math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
