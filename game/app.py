@@ -11,7 +11,6 @@ the real app with injected events under the dummy video driver.
 from __future__ import annotations
 
 import gc
-import os
 import sys
 from pathlib import Path
 from dataclasses import dataclass, field, replace

@@ -46,6 +46,7 @@ from functools import cached_property
 from operator import attrgetter
 
 import numpy as np
+from mypy_extensions import mypyc_attr
 
 from .arena_model import (Ball, BallState, ArenaEvent, Controls, HeldBall, Player, Vec3, Zombie,
                           ZombieState)
@@ -70,6 +71,7 @@ _POSITIVE = ("arena_radius_m", "dt_s", "max_catch_up_s", "player_speed_m_s", "pl
              "gravity", "blown_up_min_m_s", "flying_max_s", "flying_max_height_m")
 
 
+@mypyc_attr(native_class=False)  # a plain class even when compiled (README, "The compiled build")
 @dataclass(frozen=True)
 class ArenaSettings:
     """Every tunable of the arena, with its default.

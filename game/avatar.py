@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
+from mypy_extensions import mypyc_attr
 
 from tracker import quat as Q
 from tracker.fusion import qmath as q
@@ -56,6 +57,7 @@ class Bone:
     length: float = 0.0
 
 
+@mypyc_attr(native_class=False)  # a plain class even when compiled (README, "The compiled build")
 @dataclass(frozen=True)
 class BodySettings:
     """The player's body; arm lengths default to ARCHITECTURE.md's arm model."""

@@ -72,6 +72,7 @@ from enum import Enum
 from typing import Iterable, Literal, NamedTuple, get_args
 
 import numpy as np
+from mypy_extensions import mypyc_attr
 
 from .avatar import ArmState
 
@@ -96,6 +97,7 @@ _TIMES = ("raise_dwell_s", "lower_dwell_s", "flex_dwell_s", "min_spin_s", "aim_l
 _POSITIVE_TIMES = ("charge_s", "rise_s", "history_s")
 
 
+@mypyc_attr(native_class=False)  # a plain class even when compiled (README, "The compiled build")
 @dataclass(frozen=True)
 class GestureSettings:
     """Every threshold of the gesture machine, with its default.
@@ -180,6 +182,7 @@ class GestureSettings:
                              f" + flex_dwell_s ({needed:g}), or the aim could be forgotten before the launch")
 
 
+@mypyc_attr(native_class=False)  # a plain class even when compiled (README, "The compiled build")
 @dataclass(frozen=True)
 class GestureEvent:
     """Something the game reacts to.

@@ -41,6 +41,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable
 
+from mypy_extensions import mypyc_attr
+
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
 
@@ -65,6 +67,7 @@ PROGRESS_S = 60  # simulated seconds between progress lines within a match (one 
 MAX_SETUP_S = 90.0  # menu and calibration take at most this long, or the match is abandoned
 
 
+@mypyc_attr(native_class=False)  # a plain class even when compiled (README, "The compiled build")
 @dataclass(frozen=True)
 class MatchConfig:
     """One match's settings (JSON-able through ``dataclasses.asdict``)."""
@@ -201,7 +204,7 @@ def run_match(config: MatchConfig, progress: Callable[[str], None] | None = None
     """
     import pygame
 
-    from .app import App, GameOver, Play
+    from .app import App, Calibration, GameOver, Menu, Play
     from .preferences import Preferences
 
     wall0 = time.perf_counter()
@@ -213,6 +216,8 @@ def run_match(config: MatchConfig, progress: Callable[[str], None] | None = None
     wire = PtyWire() if config.pty else MemoryWire()
     seen = Observed()
     keys = {"return": pygame.K_RETURN, "r": pygame.K_r}
+    screens: dict[type, str] = {Menu: "menu", Calibration: "calibration", Play: "play",
+                                GameOver: "game_over"}
     with tempfile.TemporaryDirectory(prefix="energyball-match-") as folder:
         app = App(Preferences(input="keyboard", volume=0.0, music_volume=0.0), config_dir=Path(folder),
                   seed=seed, size=SIZE, draws=config.render)
@@ -244,7 +249,7 @@ def run_match(config: MatchConfig, progress: Callable[[str], None] | None = None
                              f"{t / (time.perf_counter() - wall0):.0f}x")
                 frame += 1
                 t = frame / FRAME_HZ
-                view = _screen(screen)
+                view = _screen(screen, screens)
                 action = bot.act(t, view, game.arena, game.avatar.world_pos[f"{game.avatar.body.side}_upper_arm"])
                 walking[0] = action.controls
                 wire.write(board.run_until(t))
@@ -258,14 +263,10 @@ def run_match(config: MatchConfig, progress: Callable[[str], None] | None = None
     return _report(config, bot, board, source, game.arena, seen, time.perf_counter() - wall0)
 
 
-def _screen(screen: object) -> Screen:
-    """What the bot sees of the app's current screen."""
-    from .app import Calibration, GameOver, Menu, Play
-
-    if isinstance(screen, Calibration):
-        return Screen("calibration", screen.step)
-    names: dict[type, str] = {Menu: "menu", Play: "play", GameOver: "game_over"}
-    return Screen(next((n for cls, n in names.items() if isinstance(screen, cls)), type(screen).__name__))
+def _screen(screen: object, names: dict[type, str]) -> Screen:
+    """What the bot sees of the app's current screen (``names``: the app's screen classes)."""
+    name = next((n for cls, n in names.items() if isinstance(screen, cls)), type(screen).__name__)
+    return Screen(name, str(getattr(screen, "step"))) if name == "calibration" else Screen(name)
 
 
 def _report(config: MatchConfig, bot: Bot, board: SimBoard, source: WireInput, arena, seen: Observed,

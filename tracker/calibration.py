@@ -47,6 +47,7 @@ from pathlib import Path
 from typing import NamedTuple, Sequence
 
 import numpy as np
+from mypy_extensions import mypyc_attr
 from numpy.typing import ArrayLike, NDArray
 
 from .atomic import atomic_write
@@ -110,6 +111,7 @@ class SampleArrays:
 # ----------------------------------------------------------------- rest detection
 
 
+@mypyc_attr(native_class=False)  # a plain class even when compiled (README, "The compiled build")
 @dataclass(frozen=True)
 class RestParams:
     """Settings of :class:`RestDetector`; the defaults are VQF's rest-detection defaults.
@@ -409,6 +411,7 @@ _DIAGONAL = np.eye(3, dtype=bool)
 _UPPER = np.triu(np.ones((3, 3), dtype=bool))
 
 
+@mypyc_attr(native_class=False)  # a plain class even when compiled (README, "The compiled build")
 @dataclass(frozen=True, eq=False)
 class Pose:
     """One pose held still: accelerometer (N, 3) m/s^2 and gyroscope (N, 3) rad/s samples."""
@@ -610,6 +613,7 @@ class Corrected(NamedTuple):
     mag: Array | Vec | None
 
 
+@mypyc_attr(native_class=False)  # a plain class even when compiled (README, "The compiled build")
 @dataclass(frozen=True)
 class _PlainCalibration:
     """A :class:`BoardCalibration` as plain floats, for correcting one sample at a time.
@@ -653,6 +657,7 @@ def _transform(m: Rows | None, x: float, y: float, z: float) -> Vec:
     return (a * x + b * y + c * z, d * x + e * y + f * z, g * x + h * y + i * z)
 
 
+@mypyc_attr(native_class=False)  # a plain class even when compiled (README, "The compiled build")
 @dataclass(frozen=True, eq=False)
 class BoardCalibration:
     """Everything calibrated for one board; the defaults correct nothing.

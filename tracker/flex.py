@@ -43,15 +43,16 @@ import os
 from dataclasses import asdict, dataclass, fields, replace
 from enum import Enum
 from pathlib import Path
-from typing import NamedTuple, Sequence, TypeVar
+from typing import NamedTuple, Sequence
 
 import numpy as np
+from mypy_extensions import mypyc_attr
 from numpy.typing import ArrayLike, NDArray
 
 from .atomic import atomic_write
 
 Array = NDArray[np.float64]
-FloatOrArray = TypeVar("FloatOrArray", float, Array)  # one count, or many
+FloatOrArray = float | Array  # one count, or many (the same arithmetic on either)
 
 FULL_BEND_DEG = 127.0  # where the paper's 3 counts/degree put 50 kOhm (module docstring)
 CALIBRATION_KIND = "energyball.flex_calibration"
@@ -106,6 +107,10 @@ class FlexCircuit:
         """The voltage a count stands for: the centre of its bin, (adc + 1/2) LSB."""
         return (np.asarray(adc, dtype=float) + 0.5) * self.lsb_v
 
+    def count_at(self, ohms: float) -> float:
+        """The real count whose bin centre is the voltage at ``ohms`` (inverse of :meth:`volts_at`)."""
+        return float(self.volts(ohms)) / self.lsb_v - 0.5
+
 
 @dataclass(frozen=True)
 class FlexSensor:
@@ -144,6 +149,7 @@ def degrees_from_adc(adc: ArrayLike, sensor: FlexSensor = FlexSensor(),
     return sensor.degrees(circuit.ohms(circuit.volts_at(adc)))
 
 
+@mypyc_attr(native_class=False)  # a plain class even when compiled (README, "The compiled build")
 @dataclass(frozen=True)
 class FlexCalibration:
     """One person's map from ADC count to elbow angle.
@@ -165,7 +171,8 @@ class FlexCalibration:
     curve: float = 0.0
 
     def __post_init__(self) -> None:
-        values = (self.adc_straight, self.adc_bent, self.bent_deg, self.curve)
+        # read untyped: a value from a file may be anything, and this is where it is checked
+        values = tuple(getattr(self, f.name) for f in fields(self))
         if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in values):
             raise FlexCalibrationError(f"flex calibration values must be finite numbers: {values}")
         if self.adc_straight == self.adc_bent:
@@ -179,11 +186,11 @@ class FlexCalibration:
 
     def degrees(self, adc: ArrayLike) -> Array:
         """Elbow angle for ``adc`` (0 to ``bent_deg`` at the range's ends and beyond)."""
-        return self._angle(np.clip(self.position(np.asarray(adc, dtype=float)), 0.0, 1.0))
+        return np.asarray(self._angle(np.clip(self.position(np.asarray(adc, dtype=float)), 0.0, 1.0)))
 
     def degrees_one(self, adc: float) -> float:
         """:meth:`degrees` of one count, on plain floats (no numpy call per sample)."""
-        return self._angle(min(1.0, max(0.0, self.position(adc))))
+        return float(self._angle(min(1.0, max(0.0, float(self.position(adc))))))
 
     def position(self, adc: FloatOrArray) -> FloatOrArray:
         """u: where ``adc`` lies on the range, 0 straight, 1 bent (beyond: below 0, above 1)."""
@@ -202,9 +209,7 @@ class FlexCalibration:
     def from_model(cls, sensor: FlexSensor = FlexSensor(),
                    circuit: FlexCircuit = FlexCircuit()) -> FlexCalibration:
         """The map of the circuit model: equal to :func:`degrees_from_adc` on the range."""
-        def count(ohms: float) -> float:  # the real count whose bin centre is the voltage
-            return float(circuit.volts(ohms)) / circuit.lsb_v - 0.5
-        return cls(count(sensor.straight_ohm), count(sensor.bent_ohm), sensor.bent_deg)
+        return cls(circuit.count_at(sensor.straight_ohm), circuit.count_at(sensor.bent_ohm), sensor.bent_deg)
 
     @classmethod
     def from_poses(cls, straight: ArrayLike, bent: ArrayLike, bent_deg: float = FULL_BEND_DEG,
@@ -219,17 +224,7 @@ class FlexCalibration:
         least-squares fit, an exact quadratic through one (seed 000, sec. 6:
         the response differs from person to person).
         """
-        def mean(samples: ArrayLike, what: str) -> float:
-            s = np.asarray(samples, dtype=float).ravel()
-            if s.size == 0 or not np.all(np.isfinite(s)):
-                raise FlexCalibrationError(
-                    f"flex calibration: no usable samples for the {what} pose")
-            if np.any((s <= 0) | (s >= adc_max)):
-                raise FlexCalibrationError(f"flex calibration: the {what} pose reads the ADC rail "
-                                           "(is the flex sensor plugged in?)")
-            return float(s.mean())
-
-        s0, s1 = mean(straight, "straight"), mean(bent, "bent")
+        s0, s1 = _pose_mean(straight, "straight", adc_max), _pose_mean(bent, "bent", adc_max)
         if abs(s1 - s0) < MIN_SPAN_COUNTS:
             raise FlexCalibrationError(
                 f"flex calibration: straight ({s0:.1f}) and bent ({s1:.1f}) read almost the same; "
@@ -239,7 +234,7 @@ class FlexCalibration:
             if not 0 < deg < bent_deg:
                 raise FlexCalibrationError(f"flex calibration: a middle pose at {deg} degrees "
                                            f"must lie between 0 and {bent_deg}")
-            u = (mean(samples, f"{deg}-degree") - s0) / (s1 - s0)
+            u = (_pose_mean(samples, f"{deg}-degree", adc_max) - s0) / (s1 - s0)
             x.append(u * (u - 1.0))
             y.append(deg / bent_deg - u)
         x_, y_ = np.array(x), np.array(y)
@@ -284,6 +279,17 @@ class FlexCalibration:
             raise FlexCalibrationError(f"{path}: not a flex calibration (bad JSON: {e})") from None
         except FlexCalibrationError as e:
             raise FlexCalibrationError(f"{path}: {e}") from None
+
+
+def _pose_mean(samples: ArrayLike, what: str, adc_max: int) -> float:
+    """The mean count of a held pose's samples; a clear error if they are unusable."""
+    s = np.asarray(samples, dtype=float).ravel()
+    if s.size == 0 or not np.all(np.isfinite(s)):
+        raise FlexCalibrationError(f"flex calibration: no usable samples for the {what} pose")
+    if np.any((s <= 0) | (s >= adc_max)):
+        raise FlexCalibrationError(f"flex calibration: the {what} pose reads the ADC rail "
+                                   "(is the flex sensor plugged in?)")
+    return float(s.mean())
 
 
 class FlexStatus(Enum):

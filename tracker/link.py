@@ -15,7 +15,7 @@ import queue
 import threading
 import time
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable, Iterable, Iterator, NoReturn
 
 import serial
@@ -264,10 +264,10 @@ class Link:
     # -------------------------------------------------------------- connecting
 
     def _stats(self) -> P.DecoderStats:
-        total = P.DecoderStats(**vars(self._closed_stats))
+        total = P.DecoderStats()
+        total.add(self._closed_stats)
         if self._session:
-            for k, v in vars(self._session.decoder.stats).items():
-                setattr(total, k, getattr(total, k) + v)
+            total.add(self._session.decoder.stats)
         return total
 
     def _connect(self) -> _Session:
@@ -404,8 +404,7 @@ class Link:
             session, self._session = self._session, None
             if session is None:
                 return
-            for k, v in vars(session.decoder.stats).items():
-                setattr(self._closed_stats, k, getattr(self._closed_stats, k) + v)
+            self._closed_stats.add(session.decoder.stats)
         try:
             session.port.close()
         except (serial.SerialException, OSError):

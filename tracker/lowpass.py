@@ -13,9 +13,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from mypy_extensions import mypyc_attr
+
 Vec = tuple[float, float, float]
 
 
+@mypyc_attr(serializable=True)  # copy.deepcopy works when compiled (its __init__ needs arguments)
 @dataclass
 class LowPass2:
     """The filter's coefficients and its per-axis state; starts settled at its first input."""

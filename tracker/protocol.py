@@ -23,7 +23,7 @@ import functools
 import math
 import re
 import struct
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from enum import IntEnum, IntFlag
 from typing import Any, Callable, NamedTuple, Union
 
@@ -360,6 +360,11 @@ class DecoderStats:
         return {"frames": self.frames, "crc_errors": self.crc_errors, "dropped": self.dropped,
                 "bytes_skipped": self.bytes_skipped, "unknown": self.unknown,
                 "bad_lines": self.bad_lines}
+
+    def add(self, other: DecoderStats) -> None:
+        """Count ``other``'s counts in with these (a link's total over its sessions)."""
+        for f in fields(self):
+            setattr(self, f.name, getattr(self, f.name) + getattr(other, f.name))
 
 
 @dataclass

@@ -1,13 +1,14 @@
 """The bot's judgement: aim worked by hand, fleeing, facing, fatigue, and the calibration it follows."""
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from game.arena import Arena
 from game.arena_model import Controls
-from game.bot import DIFFICULTIES, Bot, Screen, Skill
+from game.bot import DIFFICULTIES, Bot, Screen
 from game.motion_model import direction
 
 SHOULDER = (0.2, 0.0, 1.4)
@@ -15,7 +16,7 @@ SHOULDER = (0.2, 0.0, 1.4)
 
 def _bot(difficulty: str = "normal", **changes) -> Bot:
     skill = DIFFICULTIES[difficulty]
-    return Bot(Skill(**{**skill.__dict__, **changes}), seed=3)
+    return Bot(replace(skill, **changes), seed=3)
 
 
 def test_aim_at_a_zombie_ahead_worked_by_hand():

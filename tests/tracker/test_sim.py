@@ -12,7 +12,7 @@ from tracker.board import BoardSettings, VirtualBoard, quantise
 from tracker.flex import FULL_BEND_DEG, FlexCircuit, adc_from_degrees
 from tracker.link import Link, LinkSettings
 from tracker.sim import (ACC_NOISE_DENSITY, GYR_NOISE_DENSITY, GYR_OFFSET_MAX, Chain, ErrorModel,
-                         LinkSpec, Motion, SensorErrors, SensorSpec, SimulatedSource, Simulator,
+                         Motion, SensorErrors, SensorSpec, SimulatedSource, Simulator,
                          arm_chain, arm_swing, finger_chain, grasp, mpu9250)
 
 from .helpers import wire

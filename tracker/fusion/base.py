@@ -19,12 +19,14 @@ full scale is flagged as saturated. The state stays finite either way.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import ClassVar, Generic, Protocol, Sequence, TypeVar
+from typing import TYPE_CHECKING, ClassVar, Generic, Protocol, Sequence, TypeVar
 
 import numpy as np
+from mypy_extensions import mypyc_attr
 
 from .qmath import Quat, Vec
 
@@ -61,10 +63,14 @@ class _HasQuat(Protocol):
     q: Quat
 
 
-P = TypeVar("P")
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
+
+P = TypeVar("P", bound="DataclassInstance")  # the parameters: a dataclass
 S = TypeVar("S", bound=_HasQuat)
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)  # compiled (setup.py), yet open to new filters
 class Filter(ABC, Generic[P, S]):
     """A streaming orientation filter; subclasses implement :meth:`_step`."""
 
@@ -78,7 +84,7 @@ class Filter(ABC, Generic[P, S]):
         for key in overrides:
             if not hasattr(base, key):
                 raise ValueError(f"filter {self.name!r} has no parameter {key!r}")
-        self.params: P = type(base)(**{**vars(base), **overrides})
+        self.params: P = dataclasses.replace(base, **overrides)
         self.flags = Flags()
         self._state: S = self._initial_state()
 
