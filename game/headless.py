@@ -46,7 +46,7 @@ from mypy_extensions import mypyc_attr
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
 
-from tracker import protocol as P  # noqa: E402
+from tracker import compiled, protocol as P  # noqa: E402
 from tracker.board import Faults  # noqa: E402
 from tracker.sim import Simulator  # noqa: E402
 from tracker.sim_board import SimBoard  # noqa: E402
@@ -297,7 +297,8 @@ def _report(config: MatchConfig, bot: Bot, board: SimBoard, source: WireInput, a
                      "damaged_header_intact": board.tally.damaged_header_intact,
                      "samples_stalled": board.tally.samples_stalled},
     }
-    report["timing"] = {"wall_s": round(wall_s, 3), "sim_speed": round(t_end / wall_s, 1),
+    report["timing"] = {"compiled": bool(compiled.modules()),
+                        "wall_s": round(wall_s, 3), "sim_speed": round(t_end / wall_s, 1),
                         "rss_mb_after_first_minute": round(seen.rss_mb[0], 1) if len(seen.rss_mb) > 1 else None,
                         "rss_mb_end": round(seen.rss_mb[-1], 1),
                         "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e6, 1)}
@@ -312,6 +313,8 @@ def run_matches(configs: list[MatchConfig], workers: int = 1,
     """Play the matches (on ``workers`` processes); the report with per-match results and a summary."""
     wall0 = time.perf_counter()
     reports: list[dict] = []
+    if progress:
+        progress(_build_note())
     if workers > 1 and len(configs) > 1:
         with ProcessPoolExecutor(max_workers=workers) as pool:
             for report in pool.map(run_match, configs):
@@ -323,6 +326,15 @@ def run_matches(configs: list[MatchConfig], workers: int = 1,
             _progress(progress, reports[-1], len(configs), len(reports))
     wall = time.perf_counter() - wall0
     return {"matches": reports, "summary": summarise(reports, wall)}
+
+
+def _build_note() -> str:
+    """Which build runs: the speed figures depend on it."""
+    n = len(compiled.modules())
+    if n:
+        return f"compiled build ({n} modules compiled)"
+    return ("pure Python build; `ENERGYBALL_COMPILE=1 .venv/bin/pip install -e .` makes matches about "
+            "twice as fast (README, \"The compiled build\")")
 
 
 def _progress(progress: Callable[[str], None] | None, r: dict, total: int, done: int) -> None:
@@ -352,7 +364,8 @@ def summarise(reports: list[dict], wall_s: float) -> dict:
         "launch_recall": round(matched / intended, 4) if intended else None,
         **{f"mean_{k}": mean(k) for k in ("score", "survived_s", "kills", "waves", "aim_error_deg_median")},
         "game_overs": sum(1 for r in reports if r["game_over"]),
-        "timing": {"wall_s": round(wall_s, 3), "simulated_s": round(simulated, 2),
+        "timing": {"compiled": bool(compiled.modules()), "wall_s": round(wall_s, 3),
+                   "simulated_s": round(simulated, 2),
                    "sim_speed": round(simulated / wall_s, 1) if wall_s > 0 else None},
     }
 
