@@ -111,7 +111,7 @@ class SampleArrays:
 # ----------------------------------------------------------------- rest detection
 
 
-@mypyc_attr(native_class=False)  # a plain class even when compiled (README, "The compiled build")
+@mypyc_attr(native_class=False)  # plain even when compiled: frozen, yet deep-copied with a state
 @dataclass(frozen=True)
 class RestParams:
     """Settings of :class:`RestDetector`; the defaults are VQF's rest-detection defaults.
@@ -613,7 +613,7 @@ class Corrected(NamedTuple):
     mag: Array | Vec | None
 
 
-@mypyc_attr(native_class=False)  # a plain class even when compiled (README, "The compiled build")
+@mypyc_attr(native_class=False)  # plain even when compiled: frozen, yet deep-copied with its owner
 @dataclass(frozen=True)
 class _PlainCalibration:
     """A :class:`BoardCalibration` as plain floats, for correcting one sample at a time.
