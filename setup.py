@@ -15,6 +15,8 @@ import tomllib
 from pathlib import Path
 
 from setuptools import setup
+from setuptools.command.build_ext import build_ext
+from setuptools.errors import CCompilerError, CompileError, LinkError
 
 COMPILE = os.environ.get("ENERGYBALL_COMPILE", "") == "1"
 # Translate to C only for a build, not for the metadata steps pip runs first.
@@ -41,7 +43,21 @@ def extensions() -> list:
                     opt_level="3")
 
 
+class BuildExt(build_ext):
+    """Says what the compiled build needs when the C compiler fails."""
+
+    def build_extensions(self) -> None:
+        try:
+            super().build_extensions()
+        except (CCompilerError, CompileError, LinkError) as e:
+            raise SystemExit(
+                f"error: the compiled build needs a C compiler and the Python headers (Debian: "
+                f"sudo apt install gcc python3-dev), and compiling failed: {e}\n"
+                "Without ENERGYBALL_COMPILE=1 EnergyBall installs as pure Python.") from None
+
+
 setup(
+    cmdclass={"build_ext": BuildExt},
     ext_modules=extensions() if BUILD else [],
     setup_requires=["mypy>=1.11", "numpy>=1.24"] if COMPILE else [],  # numpy: for its types
 )

@@ -31,17 +31,21 @@ def compiled_list() -> list[str]:
         return tomllib.load(f)["tool"]["energyball"]["compiled"]
 
 
+def pip_wheel(src: Path, out: Path, **env: str) -> subprocess.CompletedProcess:
+    """``ENERGYBALL_COMPILE=1 pip wheel`` of the sources in ``src``, into ``out``."""
+    return subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(out), str(src)],
+                          env={**os.environ, "ENERGYBALL_COMPILE": "1", **env}, capture_output=True, text=True)
+
+
 @pytest.fixture(scope="module")
-def build(tmp_path_factory) -> Path:
-    """The compiled wheel, unpacked: a folder to put on PYTHONPATH (beside it, ``src``: the
-    pure sources it was built from)."""
+def sources(tmp_path_factory) -> Path:
+    """A copy of the sources a build needs (so that nothing is built in this checkout)."""
     if shutil.which(sysconfig.get_config_var("CC").split()[0]) is None:
         unavailable("no C compiler to build the compiled build with", "install gcc")
     if not (Path(sysconfig.get_paths()["include"]) / "Python.h").exists():
         unavailable("no Python headers (Python.h) to build the compiled build with",
                     "install the Python development headers")
-    work = tmp_path_factory.mktemp("compiled")
-    src = work / "src"
+    src = tmp_path_factory.mktemp("compiled") / "src"
     for name in SOURCES:
         path = ROOT / name
         if path.is_dir():
@@ -49,14 +53,27 @@ def build(tmp_path_factory) -> Path:
         else:
             src.mkdir(exist_ok=True)
             shutil.copy2(path, src / name)
-    done = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(work / "dist"),
-                           str(src)], env={**os.environ, "ENERGYBALL_COMPILE": "1"},
-                          capture_output=True, text=True)
+    return src
+
+
+@pytest.fixture(scope="module")
+def build(sources) -> Path:
+    """The compiled wheel, unpacked: a folder to put on PYTHONPATH (beside it, ``src``: the
+    pure sources it was built from)."""
+    work = sources.parent
+    done = pip_wheel(sources, work / "dist")
     assert done.returncode == 0, done.stdout + done.stderr
     site = work / "site"
     (wheel,) = (work / "dist").glob("*.whl")
     zipfile.ZipFile(wheel).extractall(site)
     return site
+
+
+def test_without_a_working_compiler_the_build_says_what_it_needs(sources, tmp_path):
+    done = pip_wheel(sources, tmp_path, CC="/bin/false")
+    assert done.returncode != 0 and not list(tmp_path.glob("*.whl"))
+    assert "the compiled build needs a C compiler and the Python headers" in done.stdout + done.stderr
+    assert "Without ENERGYBALL_COMPILE=1 EnergyBall installs as pure Python" in done.stdout + done.stderr
 
 
 def run(path: Path, *args: str, cwd: Path) -> subprocess.CompletedProcess:
