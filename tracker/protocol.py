@@ -448,25 +448,28 @@ class FrameDecoder:
 
     def _raw(self, buf: bytearray, at: int, host_t: float | None) -> RawSample:
         t_us, seq, ax, ay, az, gx, gy, gz, mx, my, mz, flags = _RAW.unpack_from(buf, at)
+        self._count_gap(seq)
         return RawSample(
-            self._seconds(t_us, seq), t_us, seq, (ax, ay, az), (gx, gy, gz),
+            self._seconds(t_us), t_us, seq, (ax, ay, az), (gx, gy, gz),
             (mx, my, mz) if flags & _MAG_VALID_BIT else None, flags & FLEX_ADC_MASK,
             ACC_FS_G[flags >> _ACC_FS_SHIFT & 3], GYR_FS_DPS[flags >> _GYR_FS_SHIFT & 3],
             (flags & _MAG_OVERFLOW_BIT) != 0, host_t)
 
     def _fused(self, buf: bytearray, at: int, host_t: float | None) -> FusedSample:
         t_us, seq, w, x, y, z, flex = _FUSED.unpack_from(buf, at)
-        return FusedSample(self._seconds(t_us, seq), t_us, seq,
+        self._count_gap(seq)
+        return FusedSample(self._seconds(t_us), t_us, seq,
                            (w / Q14, x / Q14, y / Q14, z / Q14), flex / 100.0, host_t)
 
-    def _seconds(self, t_us: int, seq: int) -> float:
-        """A sample's device time unwrapped into seconds; counts the samples its sequence
-        number says were lost before it (16-bit, wrapping)."""
+    def _count_gap(self, seq: int) -> None:
+        """Count the samples a sequence number says were lost before it (16-bit, wrapping)."""
         if self._last_seq is not None:
             self.stats.dropped += (seq - self._last_seq - 1) & 0xFFFF
         self._last_seq = seq
-        # The 32-bit microsecond counter: a step backwards of more than half the range
-        # is a wrap, not jitter.
+
+    def _seconds(self, t_us: int) -> float:
+        """A sample's device time unwrapped into seconds: a step backwards of the 32-bit
+        microsecond counter by more than half its range is a wrap, not jitter."""
         last = self._last_us
         if last is not None and t_us < last and last - t_us > 1 << 31:
             self._epoch += 1 << 32

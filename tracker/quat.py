@@ -13,6 +13,7 @@ arXiv:1711.02508 (2017), cited below as "Sola 2017".
 from __future__ import annotations
 
 from functools import reduce
+from typing import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -46,7 +47,7 @@ def _join(*parts: ArrayLike) -> Array:
     return out
 
 
-def _cross(a: tuple[Array, ...], b: tuple[Array, ...]) -> tuple[Array, Array, Array]:
+def _cross(a: Sequence[Array], b: Sequence[Array]) -> tuple[Array, Array, Array]:
     """The components of a x b, from the components of a and b."""
     (ax, ay, az), (bx, by, bz) = a, b
     return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx

@@ -39,6 +39,7 @@ def as_quat(q: Iterable[float]) -> Quat:
     w, x, y, z = q
     return (float(w), float(x), float(y), float(z))
 
+
 def mul(p: Quat, q: Quat) -> Quat:
     """Hamilton product p * q."""
     pw, px, py, pz = p
