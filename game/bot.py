@@ -40,7 +40,7 @@ import numpy as np
 
 from .arena import Arena
 from .arena_model import Controls, Player, Zombie
-from .motion_model import PlayerProfile, Script, TrueLaunch
+from .motion_model import SPEED_RANGE, PlayerProfile, Script, TrueLaunch
 
 CHEST_M = 1.2  # the height the bot aims at on a zombie (1.8 m tall)
 FACING_DEG = 45.0  # a target further off the body's facing is turned toward first
@@ -98,7 +98,7 @@ class Bot:
 
     def __init__(self, skill: Skill, profile: PlayerProfile = PlayerProfile(), seed: int = 0) -> None:
         self.skill = skill
-        self.profile = replace(profile, speed=min(4.0, profile.speed * skill.speed))
+        self.profile = replace(profile, speed=_speed(profile.speed * skill.speed))
         self.script = Script(self.profile, seed)
         self.rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(1,)))
         self.play_started: float | None = None
@@ -163,13 +163,13 @@ class Bot:
         ahead = (start - t) + THROW_S / self.script.profile.speed
         aims = []
         for k, zombie in enumerate(threats[:1 + self.skill.reloads]):
-            az, el = self._aim(zombie, player, shoulder, ahead + k * RELOAD_S / self.script.profile.speed)
+            az, el = self._aim(zombie, arena, shoulder, ahead + k * RELOAD_S / self.script.profile.speed)
             if abs(az) > FACING_DEG:
                 break
             noise = self.skill.aim_noise_deg * (1.0 + self.skill.fatigue_per_min * minutes)
             aims.append((az + float(self.rng.normal(0.0, noise)), el + float(self.rng.normal(0.0, noise))))
         if not aims:  # turn toward the threat first (a positive turn is to the left)
-            azimuth, _ = self._aim(threats[0], player, shoulder, 0.0)
+            azimuth, _ = self._aim(threats[0], arena, shoulder, 0.0)
             return Action(controls=Controls(turn=-math.copysign(1.0, azimuth)))
         self.script.wait_until(start)
         self.script.gesture(aims)
@@ -180,22 +180,22 @@ class Bot:
     def _tire(self, minutes: float) -> None:
         """Movements slow with minutes played (fatigue)."""
         speed = self.profile.speed / (1.0 + self.skill.fatigue_per_min * minutes)
-        self.script.profile = replace(self.profile, speed=max(0.25, speed))
+        self.script.profile = replace(self.profile, speed=_speed(speed))
 
     @staticmethod
     def _time_to_contact(zombie: Zombie, player: Player, arena: Arena) -> float:
         gap = math.hypot(zombie.x - player.x, zombie.y - player.y) - arena.settings.contact_distance_m
         return max(0.0, gap) / max(zombie.speed, 1e-6)
 
-    def _aim(self, zombie: Zombie, player: Player, shoulder: Sequence[float], ahead_s: float
+    def _aim(self, zombie: Zombie, arena: Arena, shoulder: Sequence[float], ahead_s: float
              ) -> tuple[float, float]:
         """(azimuth, elevation) in degrees from the shoulder to the zombie's chest, ``ahead_s`` from now
         if the bot leads its targets (the zombie walks straight at the player, stopping at reach)."""
-        x, y = zombie.x, zombie.y
+        x, y, player = zombie.x, zombie.y, arena.player
         if self.skill.leads_targets and ahead_s > 0:
             dx, dy = player.x - x, player.y - y
             gap = math.hypot(dx, dy)
-            walk = min(zombie.speed * ahead_s, max(0.0, gap - 0.9))
+            walk = min(zombie.speed * ahead_s, max(0.0, gap - arena.settings.contact_distance_m))
             if gap > 1e-9:
                 x, y = x + dx / gap * walk, y + dy / gap * walk
         dx, dy, dz = x - shoulder[0], y - shoulder[1], CHEST_M - shoulder[2]
@@ -225,3 +225,9 @@ class Bot:
         wx, wy = wx / norm, wy / norm
         c, s = math.cos(player.yaw), math.sin(player.yaw)
         return Controls(forward=-wx * s + wy * c, strafe=wx * c + wy * s)
+
+
+def _speed(speed: float) -> float:
+    """A movement speed factor within what a player profile allows."""
+    low, high = SPEED_RANGE
+    return min(high, max(low, speed))

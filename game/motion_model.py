@@ -77,6 +77,8 @@ _CHANNELS = ("az", "el", "tw", "sx", "sy", "flex")  # degrees
 # ------------------------------------------------------------------ profile
 
 # name: (low, high, what it is) - the sane range of each profile value
+SPEED_RANGE = (0.25, 4.0)  # a player's movement speed factor, slowest to fastest
+
 _RANGES: dict[str, tuple[float, float, str]] = {
     "upper_arm_m": (0.15, 0.50, "an upper-arm length in metres"),
     "forearm_m": (0.15, 0.50, "a forearm length in metres"),
@@ -87,7 +89,7 @@ _RANGES: dict[str, tuple[float, float, str]] = {
     "gyro_bias_dps": (0.0, 30.0, "a gyroscope offset bound in degrees per second"),
     "noise_scale": (0.0, 20.0, "a factor on the data-sheet noise"),
     "tremor_deg": (0.0, 5.0, "a tremor amplitude in degrees"),
-    "speed": (0.25, 4.0, "a movement speed factor"),
+    "speed": (*SPEED_RANGE, "a movement speed factor"),
 }
 
 

@@ -9,7 +9,7 @@ import pytest
 from game.arena import Arena
 from game.arena_model import Controls
 from game.bot import DIFFICULTIES, Bot, Screen
-from game.motion_model import direction
+from game.motion_model import SPEED_RANGE, PlayerProfile, direction
 
 SHOULDER = (0.2, 0.0, 1.4)
 
@@ -24,7 +24,7 @@ def test_aim_at_a_zombie_ahead_worked_by_hand():
     # azimuth 0, elevation 90 - atan(0.2 / 10) = 88.854 deg.
     arena = Arena(seed=1)
     z = arena.add_zombie(0.2, 10.0, speed=1.0)
-    az, el = _bot(leads_targets=False)._aim(z, arena.player, SHOULDER, 0.0)
+    az, el = _bot(leads_targets=False)._aim(z, arena, SHOULDER, 0.0)
     assert az == pytest.approx(0.0, abs=1e-9)
     assert el == pytest.approx(90.0 - math.degrees(math.atan2(0.2, 10.0)), abs=1e-9)
 
@@ -33,11 +33,11 @@ def test_aim_turns_with_the_body_and_leads_a_walking_zombie():
     arena = Arena(seed=1)
     arena.player.yaw = math.pi / 2  # facing west (-x): a zombie to the north is on the right
     z = arena.add_zombie(0.0, 10.0, speed=1.0)
-    az, _ = _bot(leads_targets=False)._aim(z, arena.player, (0.0, 0.0, 1.4), 0.0)
+    az, _ = _bot(leads_targets=False)._aim(z, arena, (0.0, 0.0, 1.4), 0.0)
     assert az == pytest.approx(90.0, abs=1e-9)
     # Leading by 2 s: it walks 2 m straight at the player, so it is aimed at 8 m, lower down.
-    _, el_now = _bot(leads_targets=True)._aim(z, arena.player, (0.0, 0.0, 1.4), 0.0)
-    _, el_ahead = _bot(leads_targets=True)._aim(z, arena.player, (0.0, 0.0, 1.4), 2.0)
+    _, el_now = _bot(leads_targets=True)._aim(z, arena, (0.0, 0.0, 1.4), 0.0)
+    _, el_ahead = _bot(leads_targets=True)._aim(z, arena, (0.0, 0.0, 1.4), 2.0)
     assert el_ahead == pytest.approx(90.0 - math.degrees(math.atan2(0.2, 8.0)), abs=1e-9)
     assert el_ahead < el_now
 
@@ -98,3 +98,11 @@ def test_calibration_raises_forward_when_asked_then_lowers_and_presses_enter():
     keys = [bot.act(t, Screen("calibration", "done"), arena, SHOULDER).keys for t in np.arange(8.0, 11.0, 0.1)]
     assert keys.count(("return",)) == 1
     assert bot.script.pointing_at(11.0) == pytest.approx([0.0, 0.0, -1.0], abs=1e-12)  # down
+
+
+def test_a_bot_keeps_a_slow_player_within_the_speeds_a_profile_allows():
+    """The easy bot moves at 0.8 times the player's speed, but never below the slowest profile."""
+    slowest, fastest = SPEED_RANGE
+    assert Bot(DIFFICULTIES["easy"], PlayerProfile(speed=slowest)).profile.speed == slowest
+    assert Bot(DIFFICULTIES["hard"], PlayerProfile(speed=fastest)).profile.speed == fastest
+    assert Bot(DIFFICULTIES["easy"], PlayerProfile(speed=2.0)).profile.speed == 1.6
