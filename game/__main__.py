@@ -51,12 +51,31 @@ HEADLESS_ONLY = ("matches", "duration", "difficulty", "profile", "faults", "work
                  "json")
 
 
+SOURCES = ("keyboard", "virtual", "port")  # what the player plays with (the bot wears its own board)
+
+
+def _given(args: argparse.Namespace, names: Sequence[str]) -> list[str]:
+    """The options among ``names`` that the command line set, as the user wrote them."""
+    return [f"--{name}" for name in names if getattr(args, name, None) not in (None, False)]
+
+
+def _check_options(args: argparse.Namespace, command_options: Sequence[str]) -> None:
+    """A UsageError for an option that the chosen command would silently ignore."""
+    if args.command:
+        stray = _given(args, ("headless", *SOURCES)) + _given(
+            args, [n for n in HEADLESS_ONLY if n not in command_options])
+        if stray:
+            raise UsageError(f"{', '.join(stray)} do not go with the {args.command} command")
+    elif args.headless and _given(args, SOURCES):
+        raise UsageError(f"{', '.join(_given(args, SOURCES))} do not go with --headless: "
+                         "the bot wears a simulated board")
+    elif not args.headless and _given(args, HEADLESS_ONLY):
+        raise UsageError(f"{', '.join(_given(args, HEADLESS_ONLY))} only go with --headless")
+
+
 def cmd_play(args: argparse.Namespace) -> int:
     if args.headless:
         return cmd_headless(args)
-    given = [f"--{name}" for name in HEADLESS_ONLY if getattr(args, name) not in (None, False)]
-    if given:
-        raise UsageError(f"{', '.join(given)} only go with --headless")
     if not display_available():
         print(HEADLESS_HELP, file=sys.stderr)
         return 1
@@ -131,6 +150,13 @@ def cmd_gestures_eval(args: argparse.Namespace) -> int:
     return 0
 
 
+def _seed(text: str) -> int:
+    value = int(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a whole number of 0 or more, not {text}")
+    return value
+
+
 def _positive(text: str) -> int:
     value = int(text)
     if value < 1:
@@ -146,6 +172,8 @@ def _seconds(text: str) -> float:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from .bot import DIFFICULTIES
+
     parser = argparse.ArgumentParser(prog="energyball", description=(
         "The EnergyBall game: throw energy balls at zombies with your arm (a tracker board, "
         "or keyboard and mouse)."))
@@ -154,12 +182,12 @@ def build_parser() -> argparse.ArgumentParser:
     source.add_argument("--keyboard", action="store_true", help="play with keyboard and mouse")
     source.add_argument("--virtual", action="store_true", help="play with a virtual board (simulated arm)")
     source.add_argument("--port", help="the board's serial port or pyserial URL (default: find one)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the zombie waves (and of the first match)")
+    parser.add_argument("--seed", type=_seed, default=0, help="seed of the zombie waves (and of the first match)")
     h = parser.add_argument_group("headless matches (a simulated player, no window)")
     h.add_argument("--headless", action="store_true", help="play simulated matches with a bot")
     h.add_argument("--matches", type=_positive, help="how many matches, seeds S, S+1, ... (1)")
     h.add_argument("--duration", type=_seconds, metavar="SEC", help="play time of a match at most (120)")
-    h.add_argument("--difficulty", choices=("easy", "normal", "hard"), help="the bot's skill (normal)")
+    h.add_argument("--difficulty", choices=tuple(DIFFICULTIES), help="the bot's skill (normal)")
     h.add_argument("--profile", metavar="FILE.json", help="the simulated player (README lists the keys)")
     h.add_argument("--faults", metavar="SPEC", help="link faults, e.g. corrupt=0.01,drop=0.002,stall=0.5@20")
     h.add_argument("--workers", type=_positive, help="processes to spread the matches over (1)")
@@ -173,24 +201,27 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("gestures-eval", help="measure gesture recognition on simulated players")
     p.add_argument("--trials", type=_positive, default=20, help="simulated sessions (20)")
     p.add_argument("--gestures", type=_positive, default=10, help="gestures per session (10)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--profile", metavar="FILE.json", help="the simulated player (README lists the keys)")
-    p.add_argument("--json", action="store_true")
-    p.set_defaults(func=cmd_gestures_eval)
+    # Given before or after the command alike: no default here to overwrite the main one.
+    p.add_argument("--seed", type=_seed, default=argparse.SUPPRESS)
+    p.add_argument("--profile", metavar="FILE.json", default=argparse.SUPPRESS,
+                   help="the simulated player (README lists the keys)")
+    p.add_argument("--json", action="store_true", default=argparse.SUPPRESS)
+    p.set_defaults(func=cmd_gestures_eval, options=("profile", "json"))
 
     p = sub.add_parser("shots", help="render every screen to PNG (dummy video driver)")
     p.add_argument("--out", required=True, metavar="DIR")
     p.set_defaults(func=cmd_shots)
 
     p = sub.add_parser("bench", help="frame time and input latency")
-    p.add_argument("--json", action="store_true")
-    p.set_defaults(func=cmd_bench)
+    p.add_argument("--json", action="store_true", default=argparse.SUPPRESS)
+    p.set_defaults(func=cmd_bench, options=("json",))
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        _check_options(args, getattr(args, "options", ()))
         return args.func(args)
     except UsageError as e:
         print(f"energyball: {e}", file=sys.stderr)

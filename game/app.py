@@ -663,3 +663,4 @@ class App:
         self.game.close_board()
         self.game.audio.close()
         pygame.quit()
+        gc.unfreeze()  # what __init__ froze may be collected again (several apps in one process)

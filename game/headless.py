@@ -283,6 +283,7 @@ def _report(config: MatchConfig, bot: Bot, board: SimBoard, source: WireInput, a
         "seed": config.seed, "difficulty": config.difficulty, "duration_s": round(t_end, 4),
         "score": int(arena.score), "kills": arena.kills, "shots": arena.shots, "hits": arena.hits,
         "waves": arena.wave, "survived_s": round(survived, 4), "game_over": bool(arena.game_over),
+        "abandoned": seen.play_start is None,  # play never began: setup gave up after MAX_SETUP_S
         "intended_launches": intended, "detected_launches": detected,
         "false_launches": result.false_launches,
         "launch_precision": round(result.matched / detected, 4) if detected else None,
@@ -338,7 +339,10 @@ def _build_note() -> str:
 
 
 def _progress(progress: Callable[[str], None] | None, r: dict, total: int, done: int) -> None:
-    if progress:
+    if progress and r["abandoned"]:
+        progress(f"match {done}/{total} (seed {r['seed']}): abandoned, play never began within "
+                 f"{MAX_SETUP_S:.0f} s of setup (the bot could not get through calibration)")
+    elif progress:
         progress(f"match {done}/{total} (seed {r['seed']}, {r['difficulty']}): score {r['score']}, "
                  f"{r['kills']} kills, survived {r['survived_s']:.0f} s, launches {r['detected_launches']}/"
                  f"{r['intended_launches']}, {r['false_launches']} false, {r['timing']['sim_speed']:.0f}x")
@@ -364,6 +368,7 @@ def summarise(reports: list[dict], wall_s: float) -> dict:
         "launch_recall": round(matched / intended, 4) if intended else None,
         **{f"mean_{k}": mean(k) for k in ("score", "survived_s", "kills", "waves", "aim_error_deg_median")},
         "game_overs": sum(1 for r in reports if r["game_over"]),
+        "abandoned": sum(1 for r in reports if r["abandoned"]),
         "timing": {"compiled": bool(compiled.modules()), "wall_s": round(wall_s, 3),
                    "simulated_s": round(simulated, 2),
                    "sim_speed": round(simulated / wall_s, 1) if wall_s > 0 else None},

@@ -1,5 +1,6 @@
 """Headless matches end to end: bot -> simulator -> frames -> decoder -> filter -> game -> arena."""
 
+import gc
 import json
 import subprocess
 import sys
@@ -88,6 +89,9 @@ def test_command_line_prints_json_and_progress(tmp_path):
     (["--faults", "melt=1"], "unknown fault 'melt'"),
     (["--difficulty", "insane"], "invalid choice"),
     (["--duration", "nan"], "positive number of seconds"),
+    (["--seed", "-1"], "a whole number of 0 or more"),
+    (["--port", "/dev/null"], "--port do not go with --headless"),
+    (["gestures-eval"], "--headless do not go with the gestures-eval command"),
 ])
 def test_bad_settings_are_one_clear_line(args, message):
     out = subprocess.run([sys.executable, "-m", "game", "--headless", *args], capture_output=True, text=True,
@@ -99,6 +103,27 @@ def test_headless_options_without_headless_are_refused():
     out = subprocess.run([sys.executable, "-m", "game", "--matches", "3"], capture_output=True, text=True,
                          timeout=60)
     assert out.returncode == 1 and "only go with --headless" in out.stderr
+
+
+def test_headless_options_before_another_command_are_refused_not_ignored():
+    out = subprocess.run([sys.executable, "-m", "game", "--matches", "3", "--faults", "x", "gestures-eval"],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 1 and "--matches, --faults do not go with the gestures-eval command" in out.stderr
+
+
+def test_a_match_that_never_gets_past_setup_says_it_was_abandoned():
+    heard: list[str] = []
+    report = run_matches([MatchConfig(seed=1, duration_s=5.0, faults=Faults(drop_rate=1.0))], progress=heard.append)
+    assert report["matches"][0]["abandoned"] and report["summary"]["abandoned"] == 1
+    assert report["matches"][0]["survived_s"] == 0.0
+    assert any("abandoned" in line for line in heard)
+
+
+def test_a_finished_match_leaves_nothing_frozen_from_the_garbage_collector():
+    """The app freezes what it made (fewer full collections); closing it must thaw that, or every
+    match of a run stays in memory."""
+    run_match(MatchConfig(seed=2, duration_s=1.0))
+    assert gc.get_freeze_count() == 0
 
 
 def test_a_broken_profile_file_is_one_clear_line(tmp_path):
