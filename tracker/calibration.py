@@ -51,7 +51,7 @@ from mypy_extensions import mypyc_attr
 from numpy.typing import ArrayLike, NDArray
 
 from .atomic import atomic_write
-from .lowpass import LowPass2, periods
+from .lowpass import LowPass2
 from .protocol import RawSample
 
 Array = NDArray[np.float64]
@@ -133,13 +133,13 @@ class RestParams:
     tau: float = 0.5
 
 
+@mypyc_attr(serializable=True)  # copy.deepcopy works when compiled (its __init__ needs arguments)
 @dataclass
 class RestState:
     """What a :class:`RestDetector` remembers between samples."""
 
-    gyr_lp: LowPass2 | None = None  # low-pass of the gyroscope, rad/s (None before the first sample)
-    acc_lp: LowPass2 | None = None  # low-pass of the accelerometer, m/s^2
-    dt: float = 0.0  # the sample period the low-passes were designed for
+    gyr_lp: LowPass2  # low-pass of the gyroscope, rad/s
+    acc_lp: LowPass2  # low-pass of the accelerometer, m/s^2
     still_for: float = 0.0  # seconds the samples have been still
     rest: bool = False
 
@@ -157,7 +157,11 @@ class RestDetector:
 
     def __init__(self, params: RestParams | None = None) -> None:
         self.params = params or RestParams()
-        self._state = RestState()
+        self._state = self._initial_state()
+
+    def _initial_state(self) -> RestState:
+        tau = self.params.tau
+        return RestState(LowPass2(tau), LowPass2(tau))
 
     @property
     def state(self) -> RestState:
@@ -172,11 +176,12 @@ class RestDetector:
     @property
     def gyr_lp(self) -> tuple[float, float, float] | None:
         """The low-passed gyroscope (rad/s), None before the first sample."""
-        return self._state.gyr_lp.y if self._state.gyr_lp else None
+        lp = self._state.gyr_lp
+        return lp.y if lp.primed else None
 
     def reset(self) -> None:
         """Forget everything; the next sample starts afresh."""
-        self._state = RestState()
+        self._state = self._initial_state()
 
     def update(self, gyr: Sequence[float] | Array, acc: Sequence[float] | Array, dt: float) -> bool:
         """Feed one sample (rad/s, m/s^2, seconds since the last); whether the board is at rest."""
@@ -188,16 +193,7 @@ class RestDetector:
                 and -inf < ay < inf and -inf < az < inf and 0.0 < dt < inf):
             s.still_for, s.rest = 0.0, False
             return False
-        gyr_lp, acc_lp = s.gyr_lp, s.acc_lp
-        n = periods(dt, s.dt) if gyr_lp is not None else 0  # > 1: samples were lost
-        if gyr_lp is None or acc_lp is None:
-            gyr_lp, acc_lp = s.gyr_lp, s.acc_lp = LowPass2.design(p.tau, dt), LowPass2.design(p.tau, dt)
-            s.dt = dt
-        elif not n:  # a new sample rate: keep what was learnt
-            gyr_lp, acc_lp = s.gyr_lp, s.acc_lp = gyr_lp.redesigned(p.tau, dt), acc_lp.redesigned(p.tau, dt)
-            s.dt = dt
-        n = max(n, 1)
-        (lx, ly, lz), (mx, my, mz) = gyr_lp.held((gx, gy, gz), n), acc_lp.held((ax, ay, az), n)
+        (lx, ly, lz), (mx, my, mz) = s.gyr_lp.step((gx, gy, gz), dt), s.acc_lp.step((ax, ay, az), dt)
         ux, uy, uz = gx - lx, gy - ly, gz - lz  # the gyroscope's deviation from its low-pass
         vx, vy, vz = ax - mx, ay - my, az - mz  # the accelerometer's
         r = p.gyr_max_rate  # the low-passed rate below it on every axis (finite here: a

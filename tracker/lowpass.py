@@ -21,13 +21,20 @@ Vec = tuple[float, float, float]
 @mypyc_attr(serializable=True)  # copy.deepcopy works when compiled (its __init__ needs arguments)
 @dataclass
 class LowPass2:
-    """The filter's coefficients and its per-axis state; starts settled at its first input."""
+    """The filter of time constant ``tau``: its coefficients for samples ``dt`` apart and its
+    per-axis state. It starts settled at its first input.
 
-    b0: float
-    b1: float
-    b2: float
-    a1: float
-    a2: float
+    :meth:`step` designs it for the sample period it meets (none is known before
+    the first sample) and follows a new one.
+    """
+
+    tau: float  # seconds
+    dt: float = 0.0  # the sample period the coefficients are for, seconds (0: not designed yet)
+    b0: float = 0.0
+    b1: float = 0.0
+    b2: float = 0.0
+    a1: float = 0.0
+    a2: float = 0.0
     s1: Vec = (0.0, 0.0, 0.0)  # the first state of each axis
     s2: Vec = (0.0, 0.0, 0.0)  # the second
     primed: bool = False
@@ -36,18 +43,36 @@ class LowPass2:
     @classmethod
     def design(cls, tau: float, dt: float) -> "LowPass2":
         """The filter of time constant ``tau`` for samples ``dt`` apart (both seconds)."""
-        fc = math.sqrt(2.0) / (2.0 * math.pi * tau)
+        lp = cls(tau)
+        lp._design(dt)
+        return lp
+
+    def _design(self, dt: float) -> None:
+        """The coefficients for samples ``dt`` apart; a filter that has run settles at its last output."""
+        fc = math.sqrt(2.0) / (2.0 * math.pi * self.tau)
         k = math.tan(math.pi * min(fc * dt, 0.49))
         norm = 1.0 + math.sqrt(2.0) * k + k * k
         b0 = k * k / norm
-        return cls(b0, 2 * b0, b0, 2.0 * (k * k - 1.0) / norm, (1.0 - math.sqrt(2.0) * k + k * k) / norm)
-
-    def redesigned(self, tau: float, dt: float) -> "LowPass2":
-        """The filter for a new sample rate, settled at this one's last output (if it has run)."""
-        new = LowPass2.design(tau, dt)
+        self.b0, self.b1, self.b2 = b0, 2 * b0, b0
+        self.a1, self.a2 = 2.0 * (k * k - 1.0) / norm, (1.0 - math.sqrt(2.0) * k + k * k) / norm
+        self.dt = dt
         if self.primed:
-            new(self.y)
-        return new
+            self.primed = False
+            self(self.y)
+
+    def step(self, x: Vec, dt: float) -> Vec:
+        """Filter ``x``, which came ``dt`` after the sample before it.
+
+        The first sample designs the filter for ``dt``. A ``dt`` that is a whole
+        number n of periods means n - 1 samples were lost: ``x`` is taken as held
+        over all n (:meth:`held`), so the filter's time stays right. Any other
+        ``dt`` is a new sample rate: the filter is designed again, keeping its output.
+        """
+        n = periods(dt, self.dt) if self.dt else 0
+        if not n:
+            self._design(dt)
+            n = 1
+        return self.held(x, n)
 
     def held(self, x: Vec, periods: int) -> Vec:
         """Filter ``x`` as if it had arrived at each of ``periods`` sample times (zero-order hold):

@@ -25,8 +25,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from mypy_extensions import mypyc_attr
+
 from ..calibration import RestDetector, RestParams
-from ..lowpass import LowPass2, periods
+from ..lowpass import LowPass2
 from .base import Filter
 from .qmath import (IDENTITY, Quat, Vec, about_z, from_rotvec, integrate, mul, normalize, rotate,
                     rotate_inverse, tilt_to_up)
@@ -53,10 +55,13 @@ class DefaultParams:
     startup_t: float = 1.0  # during the first second corrections use plain averaging (fast start)
 
 
+@mypyc_attr(serializable=True)  # copy.deepcopy works when compiled (its __init__ needs arguments)
 @dataclass
 class DefaultState:
     """Everything the default filter has learned (read with get_state, restore with set_state)."""
 
+    acc_lp: LowPass2  # the accelerometer in frame I, low-passed
+    rest: RestDetector
     q: Quat = IDENTITY  # the output, q_WS
     q_gyr: Quat = IDENTITY  # strapdown S -> I
     q_inc: Quat = IDENTITY  # inclination correction I -> E
@@ -67,9 +72,6 @@ class DefaultState:
     mag_norm: float = 0.0  # reference field norm (uT), 0 until known
     mag_dip: float = 0.0  # reference dip angle (rad)
     mag_samples: int = 0  # undisturbed magnetometer samples used so far
-    dt: float = 0.0  # the sample period the low-passes were designed for
-    acc_lp: LowPass2 | None = None
-    rest: RestDetector | None = None
 
 
 class DefaultFilter(Filter[DefaultParams, DefaultState]):
@@ -79,21 +81,14 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
     Params = DefaultParams
     State = DefaultState
 
-    def _design(self, dt: float) -> None:
-        s, p = self._state, self.params
-        s.dt = dt
-        s.acc_lp = LowPass2.design(p.tau_acc, dt) if s.acc_lp is None else s.acc_lp.redesigned(p.tau_acc, dt)
-        if s.rest is None:
-            # Fed the raw rate, so the low-passed rate may be as large as the bias can be.
-            s.rest = RestDetector(RestParams(p.rest_gyr_th, p.rest_acc_th, 2 * p.bias_max,
-                                             p.rest_min_t, p.rest_tau))
+    def _initial_state(self) -> DefaultState:
+        p = self.params
+        # The rest detector is fed the raw rate, so the low-passed rate may be as large as the bias can be.
+        rest = RestDetector(RestParams(p.rest_gyr_th, p.rest_acc_th, 2 * p.bias_max, p.rest_min_t, p.rest_tau))
+        return DefaultState(LowPass2(p.tau_acc), rest)
 
     def _step(self, gyr: Vec, acc: Vec | None, mag: Vec | None, dt: float) -> Quat:
         s, p = self._state, self.params
-        n = periods(dt, s.dt) if s.acc_lp is not None else 0  # > 1: samples were lost
-        if not n:  # the first sample, or a new sample rate
-            self._design(dt)
-            n = 1
         s.t += dt
         if acc is not None:
             self._detect_rest(gyr, acc, dt)
@@ -102,7 +97,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         s.q_gyr = normalize(integrate(s.q_gyr, (gyr[0] - b[0], gyr[1] - b[1], gyr[2] - b[2]), dt))
         # 2. Inclination from the accelerometer low-passed in frame I (VQF sec. 3.2),
         #    and the bias from the correction while in motion (Mahony eq. 32).
-        tilt = self._correct_inclination(acc, n) if acc is not None else None
+        tilt = self._correct_inclination(acc, dt) if acc is not None else None
         q6 = mul(s.q_inc, s.q_gyr)
         if tilt is not None and not self.flags.rest and s.t > p.startup_t:
             self._learn_bias_in_motion(q6, tilt[0] / dt, tilt[1] / dt, dt)
@@ -117,7 +112,6 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
     def _detect_rest(self, gyr: Vec, acc: Vec, dt: float) -> None:
         """Rest when gyro and accelerometer stay near their low-passed values (VQF sec. 3.3)."""
         s, p = self._state, self.params
-        assert s.rest is not None  # made by _design before the first sample
         rest = s.rest.update(gyr, acc, dt)
         self.flags.rest = rest
         gyr_lp = s.rest.gyr_lp
@@ -136,16 +130,15 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
 
     # ------------------------------------------------------------ inclination
 
-    def _correct_inclination(self, acc: Vec, periods: int) -> tuple[float, float] | None:
+    def _correct_inclination(self, acc: Vec, dt: float) -> tuple[float, float] | None:
         """Turn q_inc so the low-passed accelerometer points up; the turn's (x, y) rotation vector.
 
-        ``periods``: the sample periods since the last sample (more than 1 after lost
-        ones, which the low-pass takes as this sample held). None while there is no
-        gravity yet.
+        ``dt``: the time since the last sample (several periods after lost ones, which
+        the low-pass takes as this sample held: :meth:`LowPass2.step`). None while there
+        is no gravity yet.
         """
         s = self._state
-        assert s.acc_lp is not None  # made by _design before the first sample
-        a_i = s.acc_lp.held(rotate(s.q_gyr, acc), periods)
+        a_i = s.acc_lp.step(rotate(s.q_gyr, acc), dt)
         ax, ay, az = rotate(s.q_inc, a_i)
         n = math.sqrt(ax * ax + ay * ay + az * az)
         if n < 1e-6:
