@@ -110,6 +110,17 @@ static void send_hello()
     last_status_ms = millis();
 }
 
+/* ------------------------------------------------------------ status LED */
+
+/* The LED at this moment of one of eb_board.h's patterns (EB_LED_*). */
+static void show_led(uint8_t pattern)
+{
+    if (eb_led_on(pattern, millis()))
+        PORTB |= LED_PIN_MASK;
+    else
+        PORTB &= (uint8_t)~LED_PIN_MASK;
+}
+
 /* ------------------------------------------------------------ sensors */
 
 /* Seed 002, eq. 2's idea at boot: if the gyroscope is still, its mean is the bias,
@@ -118,7 +129,7 @@ static void measure_gyro_bias()
 {
     eb_still_t still;
     eb_still_init(&still);
-    PORTB |= LED_PIN_MASK; /* steady: keep still */
+    show_led(EB_LED_CALIBRATING); /* steady: keep still */
     for (uint8_t i = 0; i < EB_BIAS_SAMPLES; i++) {
         int16_t acc[3], gyr[3];
         if (!imu_read(acc, gyr))
@@ -284,7 +295,8 @@ static void start_sampling(uint32_t k)
     }
 }
 
-/* PROTOCOL.md 7.1: seq 0, clock from 0, boot configuration, HELLO, stream. */
+/* PROTOCOL.md 7.1: seq 0, clock from 0, boot configuration, stream. The caller sends
+ * the HELLO that follows (setup, or a RESET command's reply). */
 static void power_up()
 {
     eb_state_power_up(&state);
@@ -296,7 +308,6 @@ static void power_up()
 #endif
     clock_epoch_us = micros();
     start_sampling(0);
-    send_hello();
 }
 
 /* ------------------------------------------------------------ commands */
@@ -319,8 +330,8 @@ static void execute(const eb_command_t &c)
         eb_filter_init(&filter, EB_FILTER_ALPHA); /* fused mode levels from its first sample */
         break;
     case EB_ACTION_RESET:
-        power_up(); /* sends the HELLO */
-        return;
+        power_up(); /* eb_execute asks for the HELLO after it, as after IDENTIFY */
+        break;
     }
     if (r.hello)
         send_hello();
@@ -349,11 +360,8 @@ static void check_health()
 {
     if (millis() - last_status_ms < EB_STATUS_PERIOD_MS)
         return;
-    if (!imu_ready) {
-        bring_up_imu();
-        if (imu_ready)
-            imu_set_rate(state.rate_hz);
-    }
+    if (!imu_ready)
+        bring_up_imu(); /* imu_init configures the current rate's filter */
     if (errors & EB_STATUS_BITS)
         send_hello();
     else
@@ -362,11 +370,7 @@ static void check_health()
 
 static void show_status_led()
 {
-    uint8_t pattern = !imu_ready ? EB_LED_ERROR : state.streaming ? EB_LED_STREAMING : EB_LED_IDLE;
-    if (eb_led_on(pattern, millis()))
-        PORTB |= LED_PIN_MASK;
-    else
-        PORTB &= (uint8_t)~LED_PIN_MASK;
+    show_led(!imu_ready ? EB_LED_ERROR : state.streaming ? EB_LED_STREAMING : EB_LED_IDLE);
 }
 
 /* ------------------------------------------------------------ Arduino */
@@ -379,6 +383,7 @@ void setup()
     state.rate_hz = EB_BOOT_RATE_HZ; /* for the DLPF at bring-up */
     bring_up_imu();
     power_up();
+    send_hello();
 }
 
 void loop()

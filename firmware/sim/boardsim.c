@@ -35,6 +35,7 @@
 #include <sim_irq.h>
 #include <uart_pty.h>
 
+#include "eb_protocol.h"
 #include "frames.h"
 #include "imu.h"
 #include "motion.h"
@@ -44,10 +45,12 @@ DEFINE_FIFO(uint8_t, uart_pty_fifo); /* accessors of the pty part's byte queues 
 
 #define MCU "atmega328p"
 #define F_CPU 16000000u
-#define VCC_MV 5000u
+#define VCC_MV MOTION_VCC_MV
 #define PACE_CYCLES (F_CPU / 1000) /* check the wall clock every simulated ms */
 #define EM_AVR_MACHINE 83          /* ELF e_machine of Atmel AVR */
 #define PTY_FIFO_HIGH 384          /* bytes queued to the pty: wait for the host */
+#define MAX_SECONDS 1e6            /* --seconds: 11.6 simulated days (far more overflows the cycle count) */
+#define MIN_SPEED 1e-3             /* --speed above 0: a simulated ms in at most 1 s of wall time */
 
 /* ---------------------------------------------------------------- options */
 
@@ -78,9 +81,10 @@ static void usage(FILE *f)
 		"  --interp MODE   linear (default) or hold, between CSV rows\n"
 		"  --flex-mv MV    voltage on A0 in millivolts, 0..5000 (default 0)\n"
 		"  --no-imu        nothing answers on the I2C bus\n"
-		"  --seconds S     run S simulated seconds, then exit (default: until killed)\n"
-		"  --speed X       simulated seconds per wall second (default 1 with --pty,\n"
-		"                  else 0 = as fast as possible)\n"
+		"  --seconds S     run S simulated seconds (at most 1e6), then exit (default:\n"
+		"                  until killed)\n"
+		"  --speed X       simulated seconds per wall second, 0 or at least 0.001\n"
+		"                  (default 1 with --pty, else 0 = as fast as possible)\n"
 		"  --json          print a JSON report on stdout at the end\n"
 		"  --verbose       show simavr's own messages\n");
 }
@@ -144,12 +148,16 @@ static void parse_options(int argc, char **argv, options_t *o)
 				die_usage("--flex-mv takes millivolts 0..5000, not '%s'", optarg);
 			break;
 		case 's':
-			if (parse_double(optarg, &o->seconds) < 0 || o->seconds <= 0)
-				die_usage("--seconds takes a positive number, not '%s'", optarg);
+			if (parse_double(optarg, &o->seconds) < 0 || o->seconds <= 0 ||
+			    o->seconds > MAX_SECONDS)
+				die_usage("--seconds takes a number of seconds above 0 and up to 1e6, not '%s'",
+					  optarg);
 			break;
 		case 'x':
-			if (parse_double(optarg, &o->speed) < 0 || o->speed < 0)
-				die_usage("--speed takes a number >= 0, not '%s'", optarg);
+			if (parse_double(optarg, &o->speed) < 0 || o->speed < 0 ||
+			    (o->speed > 0 && o->speed < MIN_SPEED))
+				die_usage("--speed takes 0 (as fast as possible) or a number >= 0.001, not '%s'",
+					  optarg);
 			break;
 		default: usage(stderr); exit(2);
 		}
@@ -576,13 +584,13 @@ static void print_json(FILE *f, const board_t *b, end_t end, double wall)
 {
 	static const char *const ends[] = { "seconds", "signal", "done", "crashed" };
 	const frame_counter_t *u = &b->uart;
-	uint64_t samples = u->by_type[0x01] + u->by_type[0x02];
+	uint64_t samples = u->by_type[EB_RAW] + u->by_type[EB_FUSED];
 	uint64_t total = 0, bus = 0;
 	for (int i = 0; i < PHASE_COUNT; i++) {
 		total += b->phases.p[i].total;
 		bus += b->phases.p[i].bus_total;
 	}
-	uint64_t other = u->frames - samples - u->by_type[0x03] - u->by_type[0x04];
+	uint64_t other = u->frames - samples - u->by_type[EB_HELLO] - u->by_type[EB_ACK];
 	fprintf(f, "{\n  \"elf\": ");
 	json_string(f, b->opt.elf);
 	fprintf(f, ",\n  \"end\": \"%s\",\n", ends[end]);
@@ -593,8 +601,8 @@ static void print_json(FILE *f, const board_t *b, end_t end, double wall)
 		"\"ack\": %llu, \"other\": %llu},\n",
 		(unsigned long long)u->bytes, (unsigned long long)u->frames,
 		(unsigned long long)u->crc_errors, (unsigned long long)b->bytes_lost,
-		(unsigned long long)u->by_type[0x01], (unsigned long long)u->by_type[0x02],
-		(unsigned long long)u->by_type[0x03], (unsigned long long)u->by_type[0x04],
+		(unsigned long long)u->by_type[EB_RAW], (unsigned long long)u->by_type[EB_FUSED],
+		(unsigned long long)u->by_type[EB_HELLO], (unsigned long long)u->by_type[EB_ACK],
 		(unsigned long long)other);
 	fprintf(f, "  \"i2c\": {\"transactions\": %llu, \"nacks\": %llu, \"bus_cycles\": %llu},\n",
 		(unsigned long long)b->i2c_transactions, (unsigned long long)b->i2c_nacks,

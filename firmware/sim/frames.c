@@ -10,16 +10,6 @@ void frames_init(frame_counter_t *fc)
 	memset(fc, 0, sizeof(*fc));
 }
 
-uint16_t frames_crc16(uint16_t crc, const uint8_t *data, unsigned n)
-{
-	for (unsigned i = 0; i < n; i++) {
-		crc ^= (uint16_t)(data[i] << 8);
-		for (int b = 0; b < 8; b++)
-			crc = (crc & 0x8000) ? (uint16_t)((crc << 1) ^ 0x1021) : (uint16_t)(crc << 1);
-	}
-	return crc;
-}
-
 static void drop(frame_counter_t *fc, unsigned n)
 {
 	memmove(fc->buf, fc->buf + n, fc->len - n);
@@ -34,16 +24,22 @@ static int scan_once(frame_counter_t *fc)
 {
 	if (fc->len < 2)
 		return 0;
-	if (fc->buf[0] != 0xA5 || fc->buf[1] != 0x5A) {
+	if (fc->buf[0] != EB_SYNC0 || fc->buf[1] != EB_SYNC1) {
 		drop(fc, 1);
 		return 1;
 	}
-	if (fc->len < 4)
+	if (fc->len < EB_HEADER_SIZE)
 		return 0;
-	unsigned total = fc->buf[2] + 6u;
+	uint8_t len = fc->buf[2], type = fc->buf[3];
+	int expected = eb_payload_size(type);
+	if (expected >= 0 && expected != len) {
+		drop(fc, 1); /* step 2: a known type with another len is not a frame */
+		return 1;
+	}
+	unsigned total = EB_FRAME_SIZE(len);
 	if (fc->len < total)
 		return 0;
-	uint16_t crc = frames_crc16(0xFFFF, fc->buf + 2, total - 4);
+	uint16_t crc = eb_crc16(fc->buf + 2, len + 2u, EB_CRC_INIT); /* len, type, payload */
 	uint16_t sent = (uint16_t)(fc->buf[total - 2] | fc->buf[total - 1] << 8);
 	if (crc != sent) {
 		fc->crc_errors++;
@@ -51,7 +47,7 @@ static int scan_once(frame_counter_t *fc)
 		return 1;
 	}
 	fc->frames++;
-	fc->by_type[fc->buf[3]]++;
+	fc->by_type[type]++;
 	drop(fc, total);
 	return 1;
 }
@@ -60,7 +56,7 @@ void frames_feed(frame_counter_t *fc, uint8_t byte)
 {
 	fc->bytes++;
 	if (fc->len == sizeof(fc->buf))
-		drop(fc, 1); /* cannot happen: a candidate is at most FRAME_MAX bytes */
+		drop(fc, 1); /* cannot happen: see frame_counter_t */
 	fc->buf[fc->len++] = byte;
 	while (scan_once(fc))
 		;

@@ -16,7 +16,8 @@
 
 /* ------------------------------------------------------------ conversions */
 
-int16_t imu_counts(double value, double lsb)
+/* Counts as tracker/board.py quantise makes them: round half even, saturate int16. */
+static int16_t imu_counts(double value, double lsb)
 {
 	double c = nearbyint(value / lsb); /* default rounding: half to even, as numpy rint */
 	if (c > 32767.0)
@@ -26,13 +27,15 @@ int16_t imu_counts(double value, double lsb)
 	return (int16_t)c;
 }
 
-double imu_acc_lsb(int fs_code)
+/* m/s^2 per count */
+static double imu_acc_lsb(int fs_code)
 {
 	int fs_g = 2 << (fs_code & 3);
 	return fs_g * STANDARD_GRAVITY / 32768.0;
 }
 
-double imu_gyr_lsb(int fs_code)
+/* rad/s per count */
+static double imu_gyr_lsb(int fs_code)
 {
 	int fs_dps = 250 << (fs_code & 3);
 	return fs_dps * (M_PI / 180.0) / 32768.0; /* math.radians(fs) / 32768 */

@@ -1,9 +1,10 @@
 /*
  * imu.h - a virtual MPU-9250 (I2C 0x68) and its AK8963 magnetometer (0x0C).
  *
- * Register-level models, independent of simavr: the I2C glue (i2cbus.c)
- * calls imu_start / imu_write / imu_read / imu_stop per transaction. Values
- * come from a motion (motion.h) at the simulated time the read starts.
+ * Register-level models, independent of simavr: the I2C glue in boardsim.c
+ * calls imu_start at each (repeated) START addressed to a device, then
+ * imu_write / imu_read per data byte. Values come from a motion (motion.h) at
+ * the simulated time the read starts.
  *
  * MPU-9250 (register map rev. 1.6): WHO_AM_I 0x75 = 0x71; PWR_MGMT_1 0x6B
  * (H_RESET bit 7, SLEEP bit 6), CONFIG 0x1A, SMPLRT_DIV 0x19, GYRO_CONFIG
@@ -38,7 +39,6 @@ enum {
 	MPU_ACCEL_XOUT_H = 0x3B,
 	MPU_TEMP_OUT_H = 0x41,
 	MPU_GYRO_XOUT_H = 0x43,
-	MPU_GYRO_ZOUT_L = 0x48,
 	MPU_USER_CTRL = 0x6A,
 	MPU_PWR_MGMT_1 = 0x6B,
 	MPU_WHO_AM_I = 0x75,
@@ -92,10 +92,5 @@ int imu_ak_reachable(const imu_t *imu);
 void imu_start(imu_t *imu, uint8_t addr, int read, double now);
 void imu_write(imu_t *imu, uint8_t addr, uint8_t value);
 uint8_t imu_read(imu_t *imu, uint8_t addr);
-
-/* Counts as tracker/board.py quantise makes them: round half even, saturate int16. */
-int16_t imu_counts(double value, double lsb);
-double imu_acc_lsb(int fs_code);  /* m/s^2 per count */
-double imu_gyr_lsb(int fs_code);  /* rad/s per count */
 
 #endif

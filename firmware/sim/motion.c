@@ -176,6 +176,12 @@ static int parse_row(motion_t *m, char *fields[], int nf, int nheader, const int
 			return -1;
 		}
 	}
+	/* As --flex-mv: A0 sees 0..VCC (and a negative value would mean "not given"). */
+	if ((present & (1 << COL_FLEX)) && (v[COL_FLEX] < 0 || v[COL_FLEX] > MOTION_VCC_MV)) {
+		seterr(err, errlen, "line %ld: flex_mv = %g is outside 0..%u millivolts",
+		       lineno, v[COL_FLEX], MOTION_VCC_MV);
+		return -1;
+	}
 	if (m->n && v[COL_T] <= m->t[m->n - 1]) {
 		seterr(err, errlen, "line %ld: t = %g does not increase (previous %g)",
 		       lineno, v[COL_T], m->t[m->n - 1]);

@@ -35,6 +35,7 @@ typedef struct motion {
 #define MOTION_FIELD_X 0.0   /* ENU mid-latitude field, as tracker/motion.py */
 #define MOTION_FIELD_Y 20.0
 #define MOTION_FIELD_Z (-40.0)
+#define MOTION_VCC_MV 5000u /* the board's supply and ADC reference: flex_mv is 0..this */
 
 /* A board lying still (one row). */
 void motion_still(motion_t *m);

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import shutil
 import signal
 import subprocess
 import sys
@@ -29,7 +28,7 @@ from tracker import protocol as P
 from tracker.board import FIRMWARE_VERSION, acc_lsb, counts, gyr_lsb
 from tracker.link import Link, LinkSettings
 
-from ..unavailable import unavailable
+from .firmware_lib import require, require_tool
 
 ROOT = Path(__file__).resolve().parents[2]
 FIRMWARE = ROOT / "firmware"
@@ -55,18 +54,7 @@ EDGE_S = 0.02  # samples this close to a segment change may hold either segment
 # ---------------------------------------------------------------- tools and builds
 
 
-def _missing_tools() -> list[str]:
-    missing = [t for t in ("make", "cc", "avr-gcc", "avr-g++") if shutil.which(t) is None]
-    for path, package in (("/usr/include/simavr/sim_avr.h", "libsimavr-dev"),
-                          ("/usr/include/simavr/parts/uart_pty.h", "libsimavr-dev"),
-                          ("/usr/share/arduino/hardware/arduino/avr/cores/arduino", "arduino-core-avr")):
-        if not Path(path).exists():
-            missing.append(f"{path} ({package})")
-    return missing
-
-
-def _unavailable(reason: str) -> None:
-    unavailable(reason, "these must be installed: simavr libsimavr-dev libsimavrparts1 libelf-dev "
+SIM_PACKAGES = ("apt-get install simavr libsimavr-dev libsimavrparts1 libelf-dev "
                 "gcc-avr binutils-avr avr-libc arduino-core-avr")
 
 
@@ -79,9 +67,12 @@ def _make(*args: str, timeout: float) -> None:
 @pytest.fixture(scope="module")
 def boardsim() -> Path:
     """The harness, built."""
-    missing = _missing_tools()
-    if missing:
-        _unavailable("firmware simulation tools missing: " + ", ".join(missing))
+    for tool in ("make", "cc", "avr-gcc", "avr-g++"):
+        require_tool(tool, f"the firmware simulation needs it: {SIM_PACKAGES}")
+    for path, package in (("/usr/include/simavr/sim_avr.h", "libsimavr-dev"),
+                          ("/usr/include/simavr/parts/uart_pty.h", "libsimavr-dev"),
+                          ("/usr/share/arduino/hardware/arduino/avr/cores/arduino", "arduino-core-avr")):
+        require(Path(path).exists(), f"{path} is not installed (apt-get install {package})")
     _make("-C", str(SIM_DIR), timeout=300)
     return BOARDSIM
 
@@ -89,8 +80,6 @@ def boardsim() -> Path:
 @pytest.fixture(scope="module")
 def elf(boardsim: Path) -> Path:
     """The real firmware, built with the firmware's own Makefile."""
-    if not (FIRMWARE / "Makefile").exists():
-        _unavailable("firmware/Makefile is not there yet")
     _make("-C", str(FIRMWARE), timeout=900)
     assert ELF.exists(), f"make -C firmware did not produce {ELF}"
     return ELF
@@ -386,6 +375,9 @@ def test_missing_or_wrong_elf_is_a_clear_error(boardsim, tmp_path):
     ("t,gx,gy,gz,ax,ay,az\n1,0,0,0,0,0,9.8\n0.5,0,0,0,0,0,9.8\n", "does not increase"),
     ("t,gx,gy,gz,ax,ay,az,mx\n0,0,0,0,0,0,9.8,1\n", "all of mx,my,mz"),
     ("t,gx,gy,gz,ax,ay,az\n", "no data rows"),
+    ("t,gx,gy,gz,ax,ay,az,flex_mv\n0,0,0,0,0,0,9.8,2000\n1,0,0,0,0,0,9.8,5001\n",
+     "m.csv: line 3: flex_mv = 5001 is outside 0..5000"),
+    ("t,gx,gy,gz,ax,ay,az,flex_mv\n0,0,0,0,0,0,9.8,-1\n", "line 2: flex_mv = -1 is outside"),
     ("", "empty file"),
 ])
 def test_bad_motion_csv_is_a_clear_error(boardsim, tmp_path, content, words):
@@ -395,3 +387,16 @@ def test_bad_motion_csv_is_a_clear_error(boardsim, tmp_path, content, words):
     _boardsim_fails(boardsim, str(elf), "--motion", str(csv), words=words)
     _boardsim_fails(boardsim, str(elf), "--motion", str(tmp_path / "none.csv"),
                     words="cannot open motion file")
+
+
+@pytest.mark.parametrize("args, words", [
+    (("--seconds", "0"), "--seconds takes a number of seconds above 0 and up to 1e6, not '0'"),
+    (("--seconds", "2e6"), "--seconds takes a number of seconds above 0 and up to 1e6, not '2e6'"),
+    (("--speed", "-1"), "--speed takes 0 (as fast as possible) or a number >= 0.001, not '-1'"),
+    (("--speed", "1e-4"), "--speed takes 0 (as fast as possible) or a number >= 0.001, not '1e-4'"),
+    (("--flex-mv", "5001"), "--flex-mv takes millivolts 0..5000, not '5001'"),
+    (("--interp", "cubic"), "--interp takes linear or hold, not 'cubic'"),
+])
+def test_bad_option_is_a_clear_error(boardsim, tmp_path, args, words):
+    # options are checked before the firmware is loaded
+    _boardsim_fails(boardsim, str(tmp_path / "unused.elf"), *args, words=words)

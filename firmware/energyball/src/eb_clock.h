@@ -52,6 +52,13 @@ typedef struct {
     uint16_t rate_hz;
 } eb_timer_plan_t;
 
+/* cpu_hz must divide 16 MHz (16, 8, 4, 2 or 1 MHz): the tick length is kept in whole
+ * 1/16 us, prescaler * (16 MHz / cpu_hz), which a 20 MHz clock would make 0 (and
+ * eb_timer_ticks divide by zero) and a 12 MHz one wrong. The board's F_CPU is
+ * checked here, at compile time. */
+#if defined(F_CPU) && (16000000UL % (F_CPU) != 0)
+#error "eb_clock: F_CPU must divide 16 MHz (the timer plan counts ticks in 1/16 us)"
+#endif
 void eb_timer_plan(eb_timer_plan_t *t, uint16_t rate_hz, uint32_t cpu_hz);
 /* Length in ticks of the next timer period. */
 uint16_t eb_timer_next_period(eb_timer_plan_t *t);

@@ -4,7 +4,7 @@
 #include <math.h>
 #include <string.h>
 
-uint16_t eb_crc16_update(uint16_t crc, uint8_t byte)
+static uint16_t eb_crc16_update(uint16_t crc, uint8_t byte)
 {
     /* The bitwise step of PROTOCOL.md sec. 2 (avr-libc's _crc_xmodem_update). */
     crc ^= (uint16_t)byte << 8;

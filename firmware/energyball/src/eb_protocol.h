@@ -47,7 +47,6 @@ enum {
 
 /* CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, MSB first), PROTOCOL.md sec. 2. */
 #define EB_CRC_INIT 0xFFFFu
-uint16_t eb_crc16_update(uint16_t crc, uint8_t byte);
 uint16_t eb_crc16(const uint8_t *data, size_t n, uint16_t crc);
 
 /* Payload length of a known type, or -1 for an unknown type. */
