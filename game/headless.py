@@ -33,6 +33,7 @@ import os
 import pty
 import resource
 import statistics
+import sys
 import tempfile
 import time
 import tty
@@ -86,9 +87,6 @@ class MatchConfig:
             raise ValueError(f"difficulty must be one of {', '.join(DIFFICULTIES)}, not {self.difficulty!r}")
         if not (math.isfinite(self.duration_s) and self.duration_s > 0):
             raise ValueError(f"duration must be a positive number of seconds, not {self.duration_s!r}")
-
-
-# ----------------------------------------------------------------- the board
 
 
 # ----------------------------------------------------------------- the wire
@@ -188,13 +186,18 @@ def _body_frame(event: GestureEvent, body_yaw: float) -> GestureEvent:
     return replace(event, direction=(c * x + s * y, -s * x + c * y, z))
 
 
+def _peak_rss_mb() -> float:
+    """The process's peak resident memory, MB (getrusage counts kB on Linux, bytes on macOS)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * (1 if sys.platform == "darwin" else 1024) / 1e6
+
+
 def _rss_mb() -> float:
     """The process's resident memory now, MB (Linux /proc; the peak elsewhere)."""
     try:
         with open("/proc/self/statm") as f:
             return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 1e6
     except OSError:
-        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e6
+        return _peak_rss_mb()
 
 
 def run_match(config: MatchConfig, progress: Callable[[str], None] | None = None) -> dict:
@@ -302,7 +305,7 @@ def _report(config: MatchConfig, bot: Bot, board: SimBoard, source: WireInput, a
                         "wall_s": round(wall_s, 3), "sim_speed": round(t_end / wall_s, 1),
                         "rss_mb_after_first_minute": round(seen.rss_mb[0], 1) if len(seen.rss_mb) > 1 else None,
                         "rss_mb_end": round(seen.rss_mb[-1], 1),
-                        "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e6, 1)}
+                        "peak_rss_mb": round(_peak_rss_mb(), 1)}
     return report
 
 

@@ -87,8 +87,12 @@ class Faults:
         freezes for S seconds at T seconds (may be given more than once).
         """
         corrupt, drop, stalls = 0.0, 0.0, []
+        given: set[str] = set()
         for item in filter(None, (part.strip() for part in spec.split(","))):
             name, _, value = item.partition("=")
+            if name in given and name != "stall":
+                raise ValueError(f"fault {name!r} is given twice in {spec!r}")
+            given.add(name)
             try:
                 if name in ("corrupt", "drop"):
                     rate = float(value)

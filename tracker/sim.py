@@ -60,6 +60,7 @@ _H = 5e-4  # s, the differentiation step
 _D1 = np.array([1.0, -8.0, 0.0, 8.0, -1.0]) / (12.0 * _H)  # f'  at the centre of 5 points
 _D2 = np.array([-1.0, 16.0, -30.0, 16.0, -1.0]) / (12.0 * _H**2)  # f''
 _STENCIL = np.arange(-2, 3) * _H
+STENCIL_REACH_S = 2 * _H  # a simulated sample depends on the motion this close to its time, no further
 _CHUNK = 4096  # samples per block of random numbers
 _KINDS = ("gyr", "acc", "mag", "flex")
 

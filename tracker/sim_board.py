@@ -17,12 +17,11 @@ from typing import Callable
 
 from . import protocol as P
 from .board import BoardSettings, FaultInjector, Faults, acc_lsb, counts, gyr_lsb, hello
-from .sim import Simulator
+from .sim import STENCIL_REACH_S, Simulator
 
 RATE_HZ = BoardSettings.rate_hz  # the firmware's defaults
 ACC_FS_G, GYR_FS_DPS = BoardSettings.acc_fs_g, BoardSettings.gyr_fs_dps
 BLOCK = 200  # samples the simulator computes ahead at once (1 s)
-STENCIL_S = 0.002  # a sample depends on the motion this close to it (the simulator's differences)
 Counts = tuple[tuple[int, int, int], tuple[int, int, int], tuple[int, int, int], int]  # acc, gyr, mag, flex ADC
 
 
@@ -98,7 +97,7 @@ class SimBoard:
         edited = self.edits()
         if edited == math.inf:
             return
-        k = max(0, math.floor((edited - STENCIL_S) * self.rate_hz))  # the first sample it touches
+        k = max(0, math.floor((edited - STENCIL_REACH_S) * self.rate_hz))  # the first sample it touches
         if k < self._next:
             raise RuntimeError(f"the motion changed at {edited:.4f} s, before samples already sent")
         del self._readings[max(0, k - self._first):]

@@ -87,6 +87,7 @@ def test_command_line_prints_json_and_progress(tmp_path):
 @pytest.mark.parametrize("args, message", [
     (["--faults", "corrupt=2"], "bad fault 'corrupt=2'"),
     (["--faults", "melt=1"], "unknown fault 'melt'"),
+    (["--faults", "corrupt=0.1,corrupt=0.2"], "given twice"),
     (["--difficulty", "insane"], "invalid choice"),
     (["--duration", "nan"], "positive number of seconds"),
     (["--seed", "-1"], "a whole number of 0 or more"),
