@@ -7,6 +7,21 @@ it was aimed, when the player was idle, and when the wearing calibration's two
 poses were held. The eval harness and the headless match feed the motion to
 the sensor simulator and score the tracker and the gesture machine against it.
 
+Bone and board. Two motions come out of a script. The *bone's*
+(:attr:`Script.bone_motion`, :attr:`Session.bone`) is where the humerus is:
+the player's moves, tremor and sway. The *board's link*
+(:attr:`Script.motion`, :attr:`Session.motion`) is the bone turned by what the
+strap and the soft tissue under it do (:class:`Script`: rocking, the twist
+the board does not follow, slip): q_WL,board = q_WL,bone exp(r), r = (rx, ry,
+rz) in the link frame. The simulator moves the board's link, so the board
+errs as a real one does; the truth stays the bone: the launches' directions
+(where the bone pointed when the elbow crossed the threshold) and
+:meth:`Session.pointing` / :meth:`Session.elevation_deg` come from it. The
+simulator turns the root about the shoulder, so rocking across the arm
+(rx, ry) also moves the board sideways by upper_arm_m times the angle, more
+than a board rocking about a point a few centimetres under it would; roll
+about the arm (rz: twist, slip, rocking at rest) moves it not at all.
+
 Frames. The body frame B is x right, y forward, z up (:mod:`game.avatar`); the
 simulated world is the body frame at heading 0 (z up, no walking turns). The
 root quaternion ``motion.root(t)`` is q_WL, the orientation in the world of
@@ -53,7 +68,7 @@ import json
 import math
 import os
 from dataclasses import asdict, dataclass, field, fields, replace
-from typing import Callable, Sequence
+from typing import Callable, Sequence, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -61,7 +76,10 @@ from numpy.typing import ArrayLike, NDArray
 from tracker import quat as Q
 from tracker.flex import FlexSensor
 from tracker.fusion.qmath import as_quat, as_vec
-from tracker.sim import Chain, Motion, SensorErrors, arm_chain, mpu9250
+from tracker.sim import (
+    TYPICAL_FLEX_CREEP_PCT, TYPICAL_FLEX_HYSTERESIS_PCT, TYPICAL_GYRO_BIAS_DPS, TYPICAL_GYRO_WARMUP_DPS, TYPICAL_MAG_DISTURBANCE_UT,
+    TYPICAL_MAG_HARD_IRON_UT, TYPICAL_MAG_SOFT_IRON_PCT, Chain, Motion, SensorErrors, arm_chain,
+    realistic_errors)
 
 from .avatar import Wearing
 
@@ -72,6 +90,22 @@ LAUNCH_THRESHOLD_DEG = 25.0  # a launch happens when the straightening elbow cro
 IDEAL_MOUNT = np.asarray(Wearing().mount)  # q_LB: the bone frame in the ideally worn sensor's
 _Z = (0.0, 0.0, 1.0)
 _CHANNELS = ("az", "el", "tw", "sx", "sy", "flex")  # degrees
+_STRAP = ("rx", "ry", "rz")  # degrees: the board turned relative to the bone, about link x, y, z
+
+# The launch as :meth:`Script.gesture` draws it: bent this far, straightened within this time.
+LAUNCH_BENT_DEG = (90.0, 120.0)
+LAUNCH_S = (0.12, 0.25)
+MINIMUM_JERK_PEAK_ACC = 10.0 / math.sqrt(3.0)  # max s''(tau), at tau = (3 - sqrt 3) / 6
+SHARPEST_DEG_S2 = MINIMUM_JERK_PEAK_ACC * LAUNCH_BENT_DEG[1] / LAUNCH_S[0] ** 2  # the snappiest launch
+DAMPING_RATIO = 0.3  # soft tissue under a strap (class docstring of Script: 0.2-0.4)
+BOARD_RADIUS_M = 0.05  # the board's distance from the humerus' axis (upper-arm radius)
+RING_DECAYS = 20.0  # a kick's rocking is over after exp(-20) of it is left
+TREMOR_SPREAD_HZ = 1.0  # tremor components lie within this of the profile's tremor_hz
+TREMOR_COMPONENTS = 4  # sines per channel: beating, the tremor waxes and wanes as a real one
+SWAY_HZ = (0.1, 1.0)
+# Which strap axis a move of a channel rocks the board about: the hinge (link y) for the
+# elbow and for raising the arm in its plane, link x for swings across it (module docstring).
+_KICKED = {"flex": 1, "el": 1, "sx": 1, "az": 0, "sy": 0}
 
 
 # ------------------------------------------------------------------ profile
@@ -88,8 +122,20 @@ _RANGES: dict[str, tuple[float, float, str]] = {
     "flex_bent_ohm": (1e3, 1e6, "a flex-sensor resistance in ohms"),
     "gyro_bias_dps": (0.0, 30.0, "a gyroscope offset bound in degrees per second"),
     "noise_scale": (0.0, 20.0, "a factor on the data-sheet noise"),
-    "tremor_deg": (0.0, 5.0, "a tremor amplitude in degrees"),
+    "tremor_deg": (0.0, 2.0, "a peak tremor per swing axis in degrees"),
     "speed": (*SPEED_RANGE, "a movement speed factor"),
+    "tremor_hz": (3.0, 12.0, "a tremor centre frequency in hertz"),
+    "sway_deg": (0.0, 4.0, "a peak postural sway in degrees"),
+    "wobble_deg": (0.0, 6.0, "a peak rocking of the board on the soft tissue in degrees"),
+    "wobble_hz": (5.0, 25.0, "a natural frequency of that rocking in hertz"),
+    "twist_follow": (0.4, 1.0, "a share of the humerus' axial twist the board follows"),
+    "slip_deg_per_min": (0.0, 4.0, "a slip of the board's roll about the arm in degrees per minute"),
+    "flex_hysteresis_pct": (0.0, 12.0, "a flex-sensor hysteresis in percent of its span"),
+    "flex_creep_pct": (0.0, 12.0, "a flex-sensor creep in percent of its span"),
+    "gyro_warmup_dps": (0.0, 4.0, "a gyroscope warm-up drift in degrees per second"),
+    "mag_hard_iron_ut": (0.0, 200.0, "a hard-iron offset in microtesla"),
+    "mag_soft_iron_pct": (0.0, 20.0, "a soft-iron distortion in percent"),
+    "mag_disturbance_ut": (0.0, 40.0, "an indoor field disturbance in microtesla"),
 }
 
 
@@ -97,10 +143,15 @@ _RANGES: dict[str, tuple[float, float, str]] = {
 class PlayerProfile:
     """One simulated player and how the board sits on them: the single definition.
 
-    The motion model uses the arm lengths, ``tremor_deg`` and ``speed``; the
-    harness builds the simulator from the rest, e.g. with :meth:`chain`,
-    :meth:`flex_sensor` and :meth:`sensor_errors`. Values are checked on
-    construction (ValueError naming the key).
+    The motion model uses the arm lengths, the player's keys (``tremor_*``,
+    ``sway_deg``, ``speed``) and the strap's (``wobble_*``, ``twist_follow``,
+    ``slip_deg_per_min``); the harness builds the simulator from the rest with
+    :meth:`chain`, :meth:`flex_sensor` and :meth:`sensor_errors`. Values are
+    checked on construction (one-line ValueError naming the key and its range).
+    Every default is the "typical" player and board, tuned so that the typical
+    player at rest has the real recording's statistics
+    (:func:`game.realism.compare_with_recording`); the board's own figures
+    are :mod:`tracker.sim`'s ``TYPICAL_*`` constants, kept there.
     """
 
     upper_arm_m: float = 0.30
@@ -109,11 +160,22 @@ class PlayerProfile:
     mount_pitch_deg: float = 0.0  # board tilted across it, about the hinge (link y)
     flex_straight_ohm: float = 12000.0
     flex_bent_ohm: float = 50000.0
-    gyro_bias_dps: float = 1.0  # each gyro axis draws a constant offset within +-this
+    gyro_bias_dps: float = TYPICAL_GYRO_BIAS_DPS  # each gyro axis draws a constant offset within +-this
     noise_scale: float = 1.0  # times the MPU-9250 data-sheet noise densities
-    tremor_deg: float = 0.005  # peak tremor per swing axis, two 8-12 Hz sines of half this each
-    # (physiological tremor: at 10 Hz this moves the elbow 26 um and shakes it by 0.1 m/s^2)
+    tremor_deg: float = 0.016  # peak tremor per swing axis (TREMOR_COMPONENTS sines sharing it)
     speed: float = 1.0  # > 1: faster movements (every duration divided by it)
+    tremor_hz: float = 8.5  # the tremor's centre frequency (components within +-1 Hz)
+    sway_deg: float = 0.5  # peak slow postural sway (0.1-1 Hz), always on
+    wobble_deg: float = 1.5  # peak rocking of the board on the soft tissue after the sharpest snap
+    wobble_hz: float = 9.0  # that rocking's natural frequency
+    twist_follow: float = 0.75  # share of the humerus' axial twist the board follows
+    slip_deg_per_min: float = 0.5  # drift of the board's roll about the arm during play
+    flex_hysteresis_pct: float = TYPICAL_FLEX_HYSTERESIS_PCT
+    flex_creep_pct: float = TYPICAL_FLEX_CREEP_PCT
+    gyro_warmup_dps: float = TYPICAL_GYRO_WARMUP_DPS
+    mag_hard_iron_ut: float = TYPICAL_MAG_HARD_IRON_UT
+    mag_soft_iron_pct: float = TYPICAL_MAG_SOFT_IRON_PCT
+    mag_disturbance_ut: float = TYPICAL_MAG_DISTURBANCE_UT
 
     def __post_init__(self) -> None:
         for name, (low, high, what) in _RANGES.items():
@@ -170,12 +232,34 @@ class PlayerProfile:
         return FlexSensor(straight_ohm=self.flex_straight_ohm, bent_ohm=self.flex_bent_ohm)
 
     def sensor_errors(self) -> SensorErrors:
-        """MPU-9250 errors (:func:`tracker.sim.mpu9250`): noise scaled, the gyro offset bounded here."""
-        base = mpu9250()
-        gyr = replace(base.gyr, noise_density=base.gyr.noise_density * self.noise_scale,
-                      offset_max=math.radians(self.gyro_bias_dps))
-        acc = replace(base.acc, noise_density=base.acc.noise_density * self.noise_scale)
-        return replace(base, gyr=gyr, acc=acc)
+        """The board's errors (:func:`tracker.sim.realistic_errors`) with this profile's figures."""
+        return realistic_errors(
+            gyro_bias_dps=self.gyro_bias_dps, noise_scale=self.noise_scale,
+            gyro_warmup_dps=self.gyro_warmup_dps, mag_hard_iron_ut=self.mag_hard_iron_ut,
+            mag_soft_iron_pct=self.mag_soft_iron_pct, mag_disturbance_ut=self.mag_disturbance_ut,
+            flex_hysteresis_pct=self.flex_hysteresis_pct, flex_creep_pct=self.flex_creep_pct)
+
+
+PROFILES_DIR = os.path.join(os.path.dirname(__file__), "profiles")
+CATALOGUE_INDEX = os.path.join(PROFILES_DIR, "README.md")
+
+
+def catalogue(folder: str | os.PathLike = PROFILES_DIR) -> dict[str, PlayerProfile]:
+    """The named players shipped with the game: each ``<name>.json`` of ``folder``, by name."""
+    names = sorted(f[:-5] for f in os.listdir(folder) if f.endswith(".json"))
+    return {name: PlayerProfile.load(os.path.join(folder, name + ".json")) for name in names}
+
+
+def catalogue_descriptions(index: str | os.PathLike = CATALOGUE_INDEX) -> dict[str, str]:
+    """Each catalogue player's one-line description, from the rows ``| `name` | text |`` of
+    the catalogue's index (``profiles/README.md``), by name."""
+    rows = {}
+    with open(index, encoding="utf-8") as f:
+        for line in f:
+            cells = [c.strip() for c in line.strip().strip("|").split("|")]
+            if len(cells) == 2 and cells[0].startswith("`") and cells[0].endswith("`"):
+                rows[cells[0].strip("`")] = cells[1]
+    return dict(sorted(rows.items()))
 
 
 # ------------------------------------------------------------------ building blocks
@@ -275,6 +359,10 @@ class _Keyframes:
         values.append(float(value))
         self._segments = None
 
+    def last(self, channel: str) -> float:
+        """The channel's latest keyframe value."""
+        return self._v[channel][-1]
+
     def forget_before(self, t: float) -> None:
         """Drop the keyframes no time from ``t`` on needs (each channel keeps its last one before ``t``)."""
         for knots, values in zip(self._t.values(), self._v.values()):
@@ -296,8 +384,8 @@ def _sine(amplitude: Array | float, freq_hz: Array | float, phase: Array | float
 
 
 @dataclass(frozen=True)
-class _Tremor:
-    """Steady oscillations amplitude sin(2 pi freq t + phase), each on one channel (a row)."""
+class _Oscillations:
+    """Steady oscillations amplitude sin(2 pi freq t + phase), each on one row of a channel array."""
 
     rows: tuple[int, ...]
     amplitude: Array
@@ -309,6 +397,70 @@ class _Tremor:
         waves = _sine(self.amplitude[:, None], self.freq_hz[:, None], self.phase[:, None], t)
         for row, wave in zip(self.rows, waves):
             channels[row] = channels[row] + wave
+
+
+def _draw(rng: np.random.Generator, rows: Sequence[tuple[int, float]], per_row: int,
+          freq_hz: tuple[float, float]) -> _Oscillations:
+    """``per_row`` sines on each (row, total peak) of ``rows``, each a share of that peak,
+    frequencies uniform in ``freq_hz``, phases uniform."""
+    n = len(rows) * per_row
+    return _Oscillations(tuple(r for r, _ in rows for _ in range(per_row)),
+                         np.array([peak / per_row for _, peak in rows for _ in range(per_row)]),
+                         rng.uniform(*freq_hz, n), rng.uniform(0.0, 2 * np.pi, n))
+
+
+def tissue_response(freq_ratio: Array | float) -> tuple[Array, Array]:
+    """Gain and phase lag of the board's rocking on the soft tissue driven by the bone's
+    acceleration, per unit of the bone's displacement at the board over the board's radius.
+
+    The wobbling mass (Gruber et al. 1998; Wakeling and Nigg 2001, soft-tissue
+    vibrations as damped oscillators): phi'' + 2 zeta w phi' + w^2 phi = -x''/rho.
+    For x = X sin(W t) with r = W / w the steady response is
+    phi = (X / rho) r^2 / sqrt((1 - r^2)^2 + (2 zeta r)^2) sin(W t - lag),
+    lag = atan2(2 zeta r, 1 - r^2) (the base-excited oscillator's relative motion).
+    """
+    r = np.asarray(freq_ratio, dtype=float)
+    gain = r * r / np.sqrt((1.0 - r * r) ** 2 + (2.0 * DAMPING_RATIO * r) ** 2)
+    return gain, np.arctan2(2.0 * DAMPING_RATIO * r, 1.0 - r * r)
+
+
+def _step_response(x: Array) -> Array:
+    """The unit-step response of the damped oscillator at x = w_d tau (0 before the step):
+    1 - exp(-zeta w tau) (cos w_d tau + zeta / sqrt(1 - zeta^2) sin w_d tau)."""
+    k = DAMPING_RATIO / math.sqrt(1.0 - DAMPING_RATIO**2)
+    return np.where(x > 0, 1.0 - np.exp(-k * x) * (np.cos(x) + k * np.sin(x)), 0.0)
+
+
+_RING_PEAK = float(np.max(_step_response(np.linspace(0.0, 4 * np.pi, 40001))
+                          - _step_response(np.linspace(-np.pi, 3 * np.pi, 40001))))
+
+
+def ring(x: ArrayLike) -> Array:
+    """The rocking after a kick, at x = w_d tau: the response to a push lasting half a
+    damped period, S(x) - S(x - pi), scaled to a peak of 1. Position and rate are
+    continuous at the kick (no jump for the simulator's differences); it decays by
+    exp(-zeta w tau) and rings at w_d = w sqrt(1 - zeta^2)."""
+    x = np.asarray(x, dtype=float)
+    return (_step_response(x) - _step_response(x - np.pi)) / _RING_PEAK
+
+
+@dataclass(frozen=True)
+class _Ring:
+    """The board rocking on the soft tissue after a kick at ``t0`` about a strap axis (a row)."""
+
+    t0: float
+    row: int
+    amplitude: float  # peak, degrees (signed)
+    freq_hz: float  # the tissue's natural frequency
+
+    @property
+    def t1(self) -> float:
+        """After this the rocking is below exp(-RING_DECAYS) of its peak: taken as over."""
+        return self.t0 + RING_DECAYS / (DAMPING_RATIO * 2 * np.pi * self.freq_hz)
+
+    def __call__(self, t: Array) -> Array:
+        w_d = 2 * np.pi * self.freq_hz * math.sqrt(1.0 - DAMPING_RATIO**2)
+        return self.amplitude * ring(w_d * (t - self.t0))
 
 
 @dataclass(frozen=True)
@@ -327,6 +479,18 @@ class _Wave:
         wave = _sine(self.amplitude, self.freq_hz, self.phase, t - self.t0)
         envelope = minimum_jerk((t - self.t0) / self.ramp) * minimum_jerk((self.t1 - t) / self.ramp)
         return wave * envelope
+
+
+_Span = TypeVar("_Span", _Wave, _Ring)
+
+
+def _add_spans(out: Array, spans: Sequence[_Span], t: Array, row: Callable[[_Span], int]) -> None:
+    """Add each time-limited oscillation (zero outside t0-t1) to its row of ``out`` where it is on."""
+    lo, hi = (t.min(), t.max()) if len(t) else (math.inf, -math.inf)
+    for span in spans:
+        if span.t0 < hi and span.t1 > lo:
+            inside = (t > span.t0) & (t < span.t1)
+            out[row(span), inside] += span(t[inside])
 
 
 # ------------------------------------------------------------------ the result
@@ -359,10 +523,12 @@ class Session:
     idle_intervals: list[Interval]
     calibration: tuple[Interval, Interval] | None  # (arm down, arm forward) still intervals
     segments: list[Segment] = field(default_factory=list)
+    bone: Motion | None = None  # the bone's motion, the truth; None: the board is glued to it
 
     def pointing(self, t: ArrayLike) -> Array:
-        """The upper arm's unit direction (shoulder to elbow) in the body frame, (N, 3)."""
-        return Q.rotate(self.motion.root(np.atleast_1d(np.asarray(t, dtype=float))), (0.0, 0.0, -1.0))
+        """The upper arm's (the bone's) unit direction, shoulder to elbow, in the body frame, (N, 3)."""
+        bone = self.bone if self.bone is not None else self.motion
+        return Q.rotate(bone.root(np.atleast_1d(np.asarray(t, dtype=float))), (0.0, 0.0, -1.0))
 
     def elevation_deg(self, t: ArrayLike) -> Array:
         """The upper arm's angle from hanging straight down, degrees."""
@@ -388,7 +554,47 @@ class Script:
     """Builds a session segment by segment; :meth:`build` gives the :class:`Session`.
 
     Each segment starts and ends with the arm hanging still, the elbow at the
-    player's relaxed angle, so segments chain in any order.
+    player's relaxed angle, so segments chain in any order. Besides the moves,
+    always on, each a deterministic function of time drawn from the seed:
+
+    - Tremor (bone): TREMOR_COMPONENTS sines per swing axis (sx, sy) within
+      TREMOR_SPREAD_HZ of ``tremor_hz``, together at most ``tremor_deg``, and
+      half as much on the twist. Physiological tremor lies at 8-12 Hz,
+      essential tremor at 4-12 Hz (Deuschl, Bain and Brin 1998, the Movement
+      Disorder Society's consensus statement on tremor, sec. 2 and 5; Elble
+      and Koller 1990, "Tremor", ch. 2): ``tremor_hz`` 3-12 Hz, ``tremor_deg``
+      0-2 deg. A tremor of A deg at f Hz turns the arm at 2 pi f A deg/s.
+    - Postural sway (bone): three sines per swing axis at 0.1-1 Hz (SWAY_HZ),
+      their vector at most ``sway_deg`` (0-4 deg) from the aim: the slow
+      drift of a held posture, the band of quiet-standing sway (Winter 1995,
+      "Human balance and posture control during standing and walking", Gait
+      and Posture 3, sec. "Quiet standing") that the shoulder carries.
+    - Rocking on the soft tissue (board): the board and the tissue under the
+      strap are a wobbling mass, a damped oscillator (Gruber et al. 1998;
+      Wakeling and Nigg 2001, J. Biomech. 34: soft-tissue vibrations of
+      10-50 Hz damped within a few cycles) of natural frequency ``wobble_hz``
+      (5-25 Hz) and damping ratio DAMPING_RATIO = 0.3 (0.2-0.4 for muscle
+      under skin-mounted sensors). Every keyframed move of the elbow or the
+      arm kicks it twice, at its start (lagging) and at its stop
+      (overshooting), :func:`ring`: a peak of ``wobble_deg`` (0-6 deg) times
+      the move's peak acceleration over the snappiest launch's
+      (SHARPEST_DEG_S2), at most 1, about the hinge (link y) for the elbow
+      and raises, about link x for swings across. At rest the tremor drives
+      it too: the bone's forward swing (sx) at the board, upper_arm_m times
+      the angle, rolls the board about the arm's axis over its radius
+      BOARD_RADIUS_M (a 32 cm upper-arm circumference) through
+      :func:`tissue_response`, in total at most ``wobble_deg``. This roll is
+      what a real upper-arm board shows at rest: its gyroscope strays mostly
+      about the arm's axis while the forearm's hardly moves (the recording of
+      :mod:`game.realism`).
+    - Twist (board): the board follows ``twist_follow`` (0.4-1.0) of the
+      humerus' axial twist, its skin sliding over the bone: skin-mounted
+      sensors on the upper arm under-read humeral axial rotation most of all
+      rotations (Cutti et al. 2008, Med. Biol. Eng. Comput. 46, sec. 4;
+      Schmidt et al. 1999, J. Biomech. 32).
+    - Slip (board): the board's roll about the arm drifts at
+      ``slip_deg_per_min`` (0-4 deg/min), its sign drawn from the seed, from
+      the script's start.
     """
 
     def __init__(self, profile: PlayerProfile = PlayerProfile(), seed: int = 0,
@@ -400,7 +606,11 @@ class Script:
         self.now = 0.0
         self._keyframes = _Keyframes({c: self.rest_flex if c == "flex" else 0.0 for c in _CHANNELS})
         self._tremor = self._draw_tremor(rng)
+        self._sway = self._draw_sway(rng)
+        self._rest_roll = self._tissue_roll(self._tremor)
+        self._slip_sign = float(rng.choice([-1.0, 1.0]))
         self._waves: list[_Wave] = []
+        self._rings: list[_Ring] = []
         self.launches: list[TrueLaunch] = []
         self.idle_intervals: list[Interval] = []
         self.segments: list[Segment] = []
@@ -415,17 +625,31 @@ class Script:
         edited, self._edited_from = self._edited_from, math.inf
         return edited
 
-    def _draw_tremor(self, rng: np.random.Generator) -> _Tremor:
-        """Two 8-12 Hz components per swing axis, half as much twist (none at tremor 0)."""
-        rows, amplitude, freq, phase = [], [], [], []
-        if self.profile.tremor_deg > 0:
-            for channel, amp in (("sx", 1.0), ("sy", 1.0), ("tw", 0.5)):
-                for _ in range(2):
-                    rows.append(_CHANNELS.index(channel))
-                    amplitude.append(amp * self.profile.tremor_deg / 2)
-                    freq.append(rng.uniform(8.0, 12.0))
-                    phase.append(rng.uniform(0, 2 * np.pi))
-        return _Tremor(tuple(rows), np.array(amplitude), np.array(freq), np.array(phase))
+    def _draw_tremor(self, rng: np.random.Generator) -> _Oscillations:
+        """Two components per swing axis within TREMOR_SPREAD_HZ of tremor_hz, half of
+        tremor_deg each, and half as much twist (class docstring)."""
+        a, f = self.profile.tremor_deg, self.profile.tremor_hz
+        rows = [(_CHANNELS.index("sx"), a), (_CHANNELS.index("sy"), a), (_CHANNELS.index("tw"), a / 2)]
+        return _draw(rng, rows, TREMOR_COMPONENTS, (f - TREMOR_SPREAD_HZ, f + TREMOR_SPREAD_HZ))
+
+    def _draw_sway(self, rng: np.random.Generator) -> _Oscillations:
+        """Three slow sines per swing axis (SWAY_HZ), together at most sway_deg from the aim."""
+        peak = self.profile.sway_deg / math.sqrt(2.0)
+        return _draw(rng, [(_CHANNELS.index("sx"), peak), (_CHANNELS.index("sy"), peak)], 3, SWAY_HZ)
+
+    def _tissue_roll(self, tremor: _Oscillations) -> _Oscillations:
+        """The board's roll about the arm driven by the tremor's forward swing (class docstring):
+        each sx component through :func:`tissue_response`, the lever upper_arm_m / BOARD_RADIUS_M;
+        scaled down if together they would exceed wobble_deg."""
+        p = self.profile
+        sx = np.array(tremor.rows) == _CHANNELS.index("sx")
+        gain, lag = tissue_response(tremor.freq_hz[sx] / p.wobble_hz)
+        amplitude = tremor.amplitude[sx] * gain * p.upper_arm_m / BOARD_RADIUS_M
+        total = float(np.sum(amplitude))
+        if total > p.wobble_deg:
+            amplitude = amplitude * (p.wobble_deg / total)
+        return _Oscillations(tuple([_STRAP.index("rz")] * int(np.sum(sx))), amplitude,
+                             tremor.freq_hz[sx], tremor.phase[sx] - lag + np.pi)
 
     def rng(self) -> np.random.Generator:
         """A fresh generator from the next child of the session's seed."""
@@ -437,8 +661,21 @@ class Script:
     def _move(self, t0: float, duration: float, **targets: float) -> float:
         self._edited_from = min(self._edited_from, t0)
         for channel, value in targets.items():
+            self._kick(channel, t0, duration, value - self._keyframes.last(channel))
             self._keyframes.move(channel, t0, t0 + duration, value)
         return t0 + duration
+
+    def _kick(self, channel: str, t0: float, duration: float, change: float) -> None:
+        """The move's start and stop rock the board (class docstring): wobble_deg times the
+        move's peak acceleration over SHARPEST_DEG_S2 (at most 1), lagging then overshooting."""
+        p = self.profile
+        if channel not in _KICKED or change == 0 or p.wobble_deg == 0:
+            return
+        sharpness = MINIMUM_JERK_PEAK_ACC * abs(change) / duration**2 / SHARPEST_DEG_S2
+        amplitude = math.copysign(p.wobble_deg * min(1.0, sharpness), change)
+        row = _KICKED[channel]
+        self._rings += [_Ring(t0, row, -amplitude, p.wobble_hz),
+                        _Ring(t0 + duration, row, amplitude, p.wobble_hz)]
 
     def _wave(self, channel: str, t0: float, t1: float, amplitude: float, freq_hz: float,
               ramp: float, phase: float = 0.0) -> None:
@@ -520,14 +757,14 @@ class Script:
             pointing = aim
             t += self._dur(rng, 0.3, 0.8) if k == 0 else self._dur(rng, 0.1, 0.3)
             t_flex = t
-            bent, straight = float(rng.uniform(90, 120)), float(rng.uniform(0, 6))
+            bent, straight = float(rng.uniform(*LAUNCH_BENT_DEG)), float(rng.uniform(0, 6))
             t = self._move(t, self._dur(rng, 0.25, 0.5), flex=bent)  # loading
             t += self._dur(rng, 0.3, 1.0)  # spinning
-            t_go, duration = t, self._dur(rng, 0.12, 0.25)
+            t_go, duration = t, self._dur(rng, *LAUNCH_S)
             t = self._move(t, duration, flex=straight)  # the launch
             fraction = (bent - self.threshold_deg) / (bent - straight)
             t_cross = t_go + duration * _minimum_jerk_inverse(fraction)
-            launches.append(TrueLaunch(t_go, t_cross, as_vec(aim), t_go - t_flex))
+            launches.append(TrueLaunch(t_go, t_cross, as_vec(self._bone_pointing(t_cross)), t_go - t_flex))
         t += self._dur(rng, 0.2, 0.5)
         t = self._move(t, self._reach_time(rng, _angle_deg(pointing, np.array([0.0, 0.0, -1.0]))),
                        az=0.0, el=0.0, tw=0.0, flex=self.rest_flex)
@@ -550,7 +787,7 @@ class Script:
         names, weights = list(activities), np.array([0.35, 0.3, 0.2, 0.15])
         t = t0
         while True:
-            t += self._dur(rng, 0.3, 1.5)  # still, tremor only
+            t += self._dur(rng, 0.3, 1.5)  # still: tremor and sway only
             if t >= t1:
                 break
             end = activities[names[rng.choice(len(names), p=weights)]](rng, t, t1)
@@ -607,34 +844,56 @@ class Script:
     # -------------------------------------------------------- the result
 
     def _degrees(self, t: Array) -> Array:
-        """Every channel at times ``t`` (M,), as (channels, M) in degrees."""
+        """Every channel of the bone at times ``t`` (M,), as (channels, M) in degrees."""
         out = self._keyframes(t)
         self._tremor.add_to(out, t)
-        lo, hi = (t.min(), t.max()) if len(t) else (math.inf, -math.inf)
-        for wave in self._waves:  # zero outside its span: evaluate only there
-            if wave.t0 < hi and wave.t1 > lo:
-                inside = (t > wave.t0) & (t < wave.t1)
-                out[_CHANNELS.index(wave.channel), inside] += wave(t[inside])
+        self._sway.add_to(out, t)
+        _add_spans(out, self._waves, t, lambda w: _CHANNELS.index(w.channel))
+        return out
+
+    def _strap_degrees(self, c: Array, t: Array) -> Array:
+        """The board turned relative to the bone (link x, y, z; degrees), (3, M), given the
+        bone's channels ``c`` (degrees) at ``t``: rocking after kicks and at rest, the twist
+        the board does not follow, and the slip (class docstring)."""
+        out = np.zeros((len(_STRAP), len(t)))
+        self._rest_roll.add_to(out, t)
+        _add_spans(out, self._rings, t, lambda r: r.row)
+        slip = self._slip_sign * self.profile.slip_deg_per_min * t / 60.0
+        out[2] += slip - (1.0 - self.profile.twist_follow) * c[_CHANNELS.index("tw")]
         return out
 
     def channels(self, t: ArrayLike) -> dict[str, Array]:
-        """Every channel (degrees) at times ``t``: keyframes plus oscillations."""
-        return dict(zip(_CHANNELS, self._degrees(np.atleast_1d(np.asarray(t, dtype=float)))))
-
-    def _radians(self, t: ArrayLike) -> Array:
-        """Every channel at times ``t``, as (channels, N) in radians."""
-        return np.radians(self._degrees(np.atleast_1d(np.asarray(t, dtype=float))))
+        """Every channel (degrees) at times ``t``: the bone's keyframes plus oscillations, and
+        the strap's ``rx``, ``ry``, ``rz`` (the board relative to the bone, link axes)."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        c = self._degrees(t)
+        return dict(zip(_CHANNELS + _STRAP, np.concatenate([c, self._strap_degrees(c, t)])))
 
     @staticmethod
-    def _root(c: Array) -> Array:
-        """q_WL from the channels (radians, in the order of ``_CHANNELS``) (module docstring)."""
+    def _bone(c: Array) -> Array:
+        """q_WL of the bone (the ideally worn board) from its channels in radians (module docstring)."""
         az, el, tw, sx, sy = c[:5]
         sway = Q.from_rotvec(np.stack([sx, sy, np.zeros_like(sx)], axis=-1))
         return Q.multiply(Q.multiply(_aim(-az, el, tw), sway), Q.conjugate(IDEAL_MOUNT))
 
+    def _board(self, t: Array) -> tuple[Array, Array]:
+        """The board's link q_WL = q_WL,bone exp(strap) and the channels (radians) at ``t``."""
+        c = self._degrees(t)
+        strap = np.radians(self._strap_degrees(c, t))
+        rad = np.radians(c)
+        return Q.multiply(self._bone(rad), Q.from_rotvec(strap.T)), rad
+
     def root(self, t: ArrayLike) -> Array:
-        """q_WL(t), the upper-arm link (= ideally worn sensor) in the world (module docstring)."""
-        return self._root(self._radians(t))
+        """q_WL(t) of the board's link (the bone and the strap): what the simulator moves."""
+        return self._board(np.atleast_1d(np.asarray(t, dtype=float)))[0]
+
+    def bone_root(self, t: ArrayLike) -> Array:
+        """q_WL(t) of the bone, the ideally worn board: where the arm really is."""
+        return self._bone(np.radians(self._degrees(np.atleast_1d(np.asarray(t, dtype=float)))))
+
+    def _bone_pointing(self, t: float) -> Array:
+        """The bone's body-frame unit direction at ``t``, sway and tremor included."""
+        return Q.rotate(self.bone_root([t]), (0.0, 0.0, -1.0))[0]
 
     @staticmethod
     def _elbow(c: Array) -> Array:
@@ -643,29 +902,36 @@ class Script:
 
     def joints(self, t: ArrayLike) -> Array:
         """The elbow angle in radians, (N, 1)."""
-        return self._elbow(self._radians(t))
+        return self._elbow(np.radians(self._degrees(np.atleast_1d(np.asarray(t, dtype=float)))))
 
     def pose(self, t: ArrayLike) -> tuple[Array, Array]:
         """:meth:`root` and :meth:`joints` together, from one evaluation of the channels."""
-        c = self._radians(t)
-        return self._root(c), self._elbow(c)
+        root, c = self._board(np.atleast_1d(np.asarray(t, dtype=float)))
+        return root, self._elbow(c)
 
     def forget_before(self, t: float) -> None:
         """Let go of the motion before ``t`` (keyframes, ended oscillations): a script that is
         extended for an hour stays small and fast. The motion from ``t`` on is unchanged."""
         self._keyframes.forget_before(t)
         self._waves = [w for w in self._waves if w.t1 > t]
+        self._rings = [r for r in self._rings if r.t1 > t]
 
     @property
     def motion(self) -> Motion:
-        """The script as a live :class:`tracker.sim.Motion`: segments added later change it."""
+        """The board's link as a live :class:`tracker.sim.Motion` (segments added later change it):
+        what the simulator moves."""
         return Motion(self.root, self.joints, self.pose)
+
+    @property
+    def bone_motion(self) -> Motion:
+        """The bone as a live :class:`tracker.sim.Motion`: where the arm is."""
+        return Motion(self.bone_root, self.joints)
 
     def build(self) -> Session:
         """The session so far; later segments added to this script do not change it."""
         frozen = copy.deepcopy(self)
-        return Session(frozen.motion, self.now, list(self.launches),
-                       list(self.idle_intervals), self.calibration_intervals, list(self.segments))
+        return Session(frozen.motion, self.now, list(self.launches), list(self.idle_intervals),
+                       self.calibration_intervals, list(self.segments), frozen.bone_motion)
 
 
 def session(profile: PlayerProfile = PlayerProfile(), seed: int = 0, gestures: int = 5,

@@ -2,19 +2,22 @@
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from game.avatar import Avatar
 from game.motion_model import (
-    LAUNCH_THRESHOLD_DEG, PlayerProfile, Script, direction, minimum_jerk, minimum_jerk_velocity,
-    session)
+    BOARD_RADIUS_M, DAMPING_RATIO, LAUNCH_THRESHOLD_DEG, MINIMUM_JERK_PEAK_ACC, SHARPEST_DEG_S2, PlayerProfile,
+    Script, direction, minimum_jerk, minimum_jerk_velocity, ring, session, tissue_response)
 from game.pose import ArmPose
 from tracker import quat as Q
+from tracker import sim
 from tracker.sim import Simulator, arm_chain, mpu9250
 
-STILL = PlayerProfile(tremor_deg=0.0)
+# A player without tremor or sway, the board glued to the bone: the moves alone.
+STILL = PlayerProfile(tremor_deg=0.0, sway_deg=0.0, wobble_deg=0.0, twist_follow=1.0, slip_deg_per_min=0.0)
 
 
 def angle_deg(a, b):
@@ -166,7 +169,7 @@ def test_speed_divides_every_movement_but_not_the_calibration_holds():
 
 
 def replace_speed(speed):
-    return PlayerProfile(tremor_deg=0.0, speed=speed)
+    return replace(STILL, speed=speed)
 
 
 # ------------------------------------------------------------ profile
@@ -176,7 +179,13 @@ def test_profile_defaults_and_json(tmp_path):
     p = PlayerProfile()
     assert (p.upper_arm_m, p.forearm_m, p.mount_roll_deg, p.mount_pitch_deg) == (0.30, 0.27, 0.0, 0.0)
     assert (p.flex_straight_ohm, p.flex_bent_ohm, p.gyro_bias_dps) == (12000.0, 50000.0, 1.0)
-    assert (p.noise_scale, p.tremor_deg, p.speed) == (1.0, 0.005, 1.0)
+    assert (p.noise_scale, p.speed) == (1.0, 1.0)
+    # the board's figures are the simulator's typical board, the numbers kept in one place
+    assert (p.gyro_bias_dps, p.gyro_warmup_dps) == (sim.TYPICAL_GYRO_BIAS_DPS, sim.TYPICAL_GYRO_WARMUP_DPS)
+    assert (p.mag_hard_iron_ut, p.mag_soft_iron_pct, p.mag_disturbance_ut) == (
+        sim.TYPICAL_MAG_HARD_IRON_UT, sim.TYPICAL_MAG_SOFT_IRON_PCT, sim.TYPICAL_MAG_DISTURBANCE_UT)
+    assert (p.flex_hysteresis_pct, p.flex_creep_pct) == (sim.TYPICAL_FLEX_HYSTERESIS_PCT,
+                                                         sim.TYPICAL_FLEX_CREEP_PCT)
     assert PlayerProfile.from_json({}) == p
     q = PlayerProfile.from_json({"speed": 2, "mount_roll_deg": -25.5})
     assert q.speed == 2.0 and isinstance(q.speed, float) and q.mount_roll_deg == -25.5
@@ -221,7 +230,13 @@ def test_profile_builds_the_worn_chain():
     tilted = PlayerProfile(mount_pitch_deg=10.0).mount()
     assert Q.rotate(tilted, (0, 1.0, 0)) == pytest.approx([0, 1.0, 0])  # pitch about the hinge
     assert p.flex_sensor().bent_ohm == 50000.0
-    assert p.sensor_errors().gyr.offset_max == pytest.approx(math.radians(1.0))
+    assert p.sensor_errors() == sim.realistic_errors()  # the typical board
+    q = PlayerProfile(gyro_bias_dps=3.0, noise_scale=2.0, gyro_warmup_dps=2.5, mag_hard_iron_ut=80.0,
+                      mag_soft_iron_pct=12.0, mag_disturbance_ut=20.0, flex_hysteresis_pct=7.0,
+                      flex_creep_pct=9.0)
+    assert q.sensor_errors() == sim.realistic_errors(
+        gyro_bias_dps=3.0, noise_scale=2.0, gyro_warmup_dps=2.5, mag_hard_iron_ut=80.0, mag_soft_iron_pct=12.0,
+        mag_disturbance_ut=20.0, flex_hysteresis_pct=7.0, flex_creep_pct=9.0)
 
 
 # ------------------------------------------------------------ in the simulator
@@ -310,3 +325,123 @@ def test_forgetting_the_past_leaves_the_motion_from_then_on_unchanged():
     np.testing.assert_array_equal(before[1], after[1])
     assert len(script._waves) < waves
     script.gesture()  # and it can go on
+
+
+# ------------------------------------------------------------ the player and the strap
+
+
+def spectrum(x, rate):
+    """One-sided amplitude spectrum of ``x`` (a sine of amplitude a at a bin shows a)."""
+    return np.fft.rfftfreq(len(x), 1 / rate), 2 * np.abs(np.fft.rfft(x)) / len(x)
+
+
+def test_a_tremor_of_a_degrees_at_f_hz_turns_the_arm_at_2_pi_f_a():
+    """Worked by hand: sx = A sin(2 pi f t) is a rate about the hinge of 2 pi f A cos(2 pi f t)."""
+    a_deg, f_hz, rate, seconds = 0.5, 6.0, 200.0, 100.0
+    profile = replace(STILL, tremor_deg=a_deg, tremor_hz=f_hz)
+    script = Script(profile, seed=3)
+    truth = Simulator(profile.chain(), script.motion).truth(np.arange(0, seconds, 1 / rate))
+    sx = script.channels(truth.t)["sx"]
+    assert np.abs(sx).max() <= a_deg + 1e-12 and np.abs(sx).max() > 0.8 * a_deg  # peak tremor_deg
+    hinge = np.degrees(truth.gyr[:, 0, 1])  # the bone's x (sx) is the board's y, the hinge
+    freq, rate_amp = spectrum(hinge, rate)
+    _, angle_amp = spectrum(sx, rate)
+    for k in np.argsort(angle_amp)[-4:]:  # the tremor's components, each 2 pi f times its angle
+        assert abs(freq[k] - f_hz) <= 1.0 + 1e-9
+        assert rate_amp[k] == pytest.approx(2 * np.pi * freq[k] * angle_amp[k], rel=0.02)
+    assert 0.8 * 2 * np.pi * (f_hz - 1) * a_deg < np.abs(hinge).max() < 2 * np.pi * (f_hz + 1) * a_deg
+
+
+def test_sway_stays_within_sway_deg_and_is_slow():
+    profile = replace(STILL, sway_deg=3.0)
+    s = Script(profile, seed=5)
+    t = np.arange(0, 300, 0.05)
+    c = s.channels(t)
+    sway = np.hypot(c["sx"], c["sy"])
+    assert sway.max() <= 3.0 + 1e-12 and sway.max() > 1.5
+    session_ = s.build()
+    assert session_.elevation_deg(t).max() <= 3.0 + 1e-9  # the hanging arm points within it
+    for channel in ("sx", "sy"):
+        freq, amp = spectrum(c[channel], 20.0)
+        power = amp**2
+        assert power[(freq >= 0.09) & (freq <= 1.01)].sum() > 0.99 * power.sum()
+
+
+def test_the_ring_decays_with_the_damping_ratio_at_the_damped_frequency():
+    x = np.linspace(0, 12 * np.pi, 200001)
+    r = ring(x)
+    assert r.max() == pytest.approx(1.0) and r[0] == 0.0
+    assert np.gradient(r, x)[0] == pytest.approx(0.0, abs=1e-3)  # no jump of the rate at the kick
+    peaks = x[1:-1][(r[1:-1] > r[:-2]) & (r[1:-1] > r[2:]) & (x[1:-1] > np.pi)]
+    assert np.diff(peaks) == pytest.approx(2 * np.pi, rel=1e-3)  # one damped period apart
+    zeta = DAMPING_RATIO
+    decrement = np.log(ring(peaks[:-1]) / ring(peaks[1:]))
+    assert decrement == pytest.approx(2 * np.pi * zeta / math.sqrt(1 - zeta**2), rel=1e-3)
+
+
+def test_a_fast_move_rocks_the_board_at_wobble_hz_scaled_by_its_sharpness():
+    profile = replace(STILL, wobble_deg=4.0, wobble_hz=20.0, speed=4.0)
+    script = Script(profile, seed=2)
+    t0 = script.now
+    t1 = script.reach(0.0, 90.0)  # a raise about the hinge: the board rocks about link y
+    t = np.linspace(t1, t1 + 0.5, 50001)
+    ry = script.channels(t)["ry"]
+    sharpness = MINIMUM_JERK_PEAK_ACC * 90.0 / (t1 - t0) ** 2 / SHARPEST_DEG_S2
+    assert 0.05 < sharpness < 1 and ry.max() == pytest.approx(4.0 * sharpness, rel=1e-3)  # overshoots
+    peaks = t[1:-1][(ry[1:-1] > ry[:-2]) & (ry[1:-1] > ry[2:])]
+    f_d = 20.0 * math.sqrt(1 - DAMPING_RATIO**2)
+    assert np.diff(peaks[:3]) == pytest.approx(1 / f_d, rel=1e-3)
+    assert np.abs(script.channels(t1 + 2.0)["ry"]) < 1e-9  # over
+    # the bone is not rocked: the truth is where the arm went
+    assert script.build().pointing(t) == pytest.approx(np.tile(direction(0.0, 90.0), (len(t), 1)), abs=1e-12)
+
+
+def relative_rotvec(script, t):
+    """The board's link relative to the bone, as a rotation vector in degrees (N, 3)."""
+    rel = Q.multiply(Q.conjugate(script.bone_root(t)), script.root(t))
+    return np.degrees(Q.to_rotvec(rel))
+
+
+def test_the_board_follows_twist_follow_of_the_bones_twist():
+    profile = replace(STILL, twist_follow=0.6)
+    script = Script(profile, seed=8)
+    script.gesture(targets=[(20.0, 95.0)])
+    t = np.linspace(0, script.now, 3000)
+    twist = script.channels(t)["tw"]
+    assert np.abs(twist).max() > 2.0  # the gesture twists the arm
+    rel = relative_rotvec(script, t)
+    assert rel[:, :2] == pytest.approx(0.0, abs=1e-9)
+    assert rel[:, 2] == pytest.approx(-(1 - 0.6) * twist, abs=1e-9)  # so the board turns 0.6 of it
+
+
+def test_the_board_slips_round_the_arm_at_slip_deg_per_min():
+    for seed in (1, 2, 3):
+        script = Script(replace(STILL, slip_deg_per_min=3.0), seed=seed)
+        rel = relative_rotvec(script, np.array([0.0, 60.0, 120.0]))
+        assert np.abs(rel[:, 2]) == pytest.approx([0.0, 3.0, 6.0], abs=1e-9)
+
+
+def test_at_rest_the_tremor_rolls_the_board_about_the_arm_within_wobble_deg():
+    """The board's roll at rest follows the tissue's response (hand: at resonance r = 1, the
+    gain is 1 / (2 zeta)), never beyond wobble_deg."""
+    gain, lag = tissue_response(1.0)
+    assert gain == pytest.approx(1 / (2 * DAMPING_RATIO)) and lag == pytest.approx(np.pi / 2)
+    assert tissue_response(0.0)[0] == 0.0 and tissue_response(100.0)[0] == pytest.approx(1.0, abs=1e-3)
+    t = np.arange(0, 60, 0.002)
+    calm = Script(replace(STILL, tremor_deg=0.02, tremor_hz=9.0, wobble_deg=2.0, wobble_hz=9.0), seed=1)
+    roll = calm.channels(t)["rz"]
+    lever = calm.profile.upper_arm_m / BOARD_RADIUS_M
+    assert 0.3 * lever * 0.02 < np.abs(roll).max() <= gain * lever * 0.02 * 1.001
+    shaky = Script(replace(STILL, tremor_deg=1.0, tremor_hz=5.0, wobble_deg=0.8), seed=1)
+    assert np.abs(shaky.channels(t)["rz"]).max() <= 0.8 + 1e-12
+
+
+def test_launch_truth_is_where_the_bone_pointed_not_the_board():
+    s = session(replace(PlayerProfile(), wobble_deg=4.0), seed=3, gestures=4, idle_s=1.0)
+    board_off = []
+    for launch in s.launches:
+        bone = s.pointing(launch.t_straight)[0]
+        assert bone == pytest.approx(launch.direction_body, abs=1e-12)
+        board = Q.rotate(s.motion.root([launch.t_straight]), (0.0, 0.0, -1.0))[0]
+        board_off.append(angle_deg(board, bone))
+    assert max(board_off) > 0.05  # the board rocks off the bone at the snap
