@@ -9,9 +9,10 @@ microtesla.
   detection: low-pass the gyroscope and the accelerometer, call a sample still
   while it stays near its low-passed value, and declare rest once the samples
   have been still for a minimum time.
-- Gyroscope bias: :func:`startup_bias` ("hold still" at start-up: the mean over
-  a still window), :class:`ContinuousBias` (re-estimated slowly during every
-  rest phase) and :class:`ThresholdBias`, seed 002's method kept as the baseline.
+- Gyroscope bias: :func:`startup_bias` ("hold still" at start-up: the bias from
+  a hold in which a real arm trembles and sways, :func:`fit_hold`, refused only
+  when the arm really moved), :class:`ContinuousBias` (re-estimated slowly during
+  every rest phase) and :class:`ThresholdBias`, seed 002's method kept as the baseline.
 - :func:`six_pose_calibration`: accelerometer offset, scale and, optionally, a
   small misalignment, from the board held still with each axis up and down.
 - :class:`BoardCalibration`: all of it for one board, applied to samples, saved
@@ -206,24 +207,12 @@ class RestDetector:
         return s.rest
 
 
-# ----------------------------------------------------------------- gyroscope bias
+# ----------------------------------------------------------------- start-up hold
 
 
-def _motion(gyr: Array, acc: Array, p: RestParams) -> str | None:
-    """Why a window of samples is not still, or None.
-
-    The window form of VQF's rest test: every sample must lie within the rest
-    thresholds of the window's mean (the mean stands in for the low-pass).
-    """
-    dg = float(np.max(np.linalg.norm(gyr - gyr.mean(axis=0), axis=1)))
-    da = float(np.max(np.linalg.norm(acc - acc.mean(axis=0), axis=1)))
-    if dg >= p.gyr_threshold:
-        return (f"the gyroscope strayed {dg / DEG:.1f} deg/s from its mean "
-                f"(still means under {p.gyr_threshold / DEG:.1f} deg/s)")
-    if da >= p.acc_threshold:
-        return (f"the accelerometer strayed {da:.2f} m/s^2 from its mean "
-                f"(still means under {p.acc_threshold:.2f} m/s^2)")
-    return None
+TREMOR_MIN_HZ = 3.0  # the slowest tremor a player may have: essential tremor 4-12 Hz, physiological
+# 8-12 Hz (Deuschl, Bain & Brin, "Consensus statement of the Movement Disorder Society on tremor",
+# Mov. Disord. 13 suppl. 3 (1998) 2-23, sec. 2 and 4), widened to the 3-12 Hz a player profile allows
 
 
 def _covered(t: Array) -> float:
@@ -235,23 +224,30 @@ def _covered(t: Array) -> float:
 class StartupParams:
     """Settings of :func:`startup_bias`.
 
-    ``duration``: seconds of stillness to average. ``max_bias``: a larger mean rate
-    on any axis (rad/s) is refused: the MPU-9250's zero-rate offset is within
-    +-5 deg/s (data sheet), so 8 deg/s means a slow turn or a faulty gyroscope.
-    ``rest``: the stillness thresholds (see :func:`_motion`).
+    ``duration``: seconds of the hold needed (the game holds 2-2.5 s). ``max_bias``:
+    a larger mean rate on any axis (rad/s) is refused: the MPU-9250's zero-rate
+    offset is within +-5 deg/s (data sheet), so 8 deg/s means a slow turn or a faulty
+    gyroscope. ``max_tilt`` (rad): a larger net tilt of the arm over the hold is a
+    move: a sway of up to 4 deg peak (the issue's 0.1-1 Hz postural sway) swings the
+    arm at most 8 deg peak to peak, so 8.5 deg. ``max_rate`` (rad/s): the low-passed
+    rate that the tilt does not explain must stay under it (VQF's rest threshold for
+    the low-passed gyroscope, 2 deg/s). ``smoothing`` (s): length of the zero-phase
+    Hann low-pass; 2 / TREMOR_MIN_HZ puts its first zero at the slowest tremor.
     """
 
     duration: float = 2.0
     max_bias: float = 8.0 * DEG
-    rest: RestParams = field(default_factory=RestParams)
+    max_tilt: float = 8.5 * DEG
+    max_rate: float = 2.0 * DEG
+    smoothing: float = 2.0 / TREMOR_MIN_HZ
 
 
 @dataclass(frozen=True, eq=False)
 class BiasResult:
     """The outcome of a start-up bias estimate; ``message`` says what happened, for the user.
 
-    ``bias`` and ``std_error`` (the standard error of the mean, sample std / sqrt(N))
-    are rad/s per axis, zeros when ``ok`` is false; ``duration`` is the seconds used.
+    ``bias`` and ``std_error`` (its standard error, :class:`HoldFit`) are rad/s per
+    axis, zeros when ``ok`` is false; ``duration`` is the seconds used.
     """
 
     ok: bool
@@ -261,48 +257,215 @@ class BiasResult:
     duration: float
 
 
+@dataclass(frozen=True, eq=False)
+class HoldFit:
+    """What :func:`fit_hold` found in a hold.
+
+    ``bias`` and ``std_error``: rad/s, sensor frame. ``tilt``: the arm's net rotation
+    about horizontal axes from the (low-passed) start to the end of the hold, rad.
+    ``rate``: the largest low-passed angular rate the model does not explain, rad/s,
+    and ``rate_vertical`` whether its larger part was about the vertical (a turn the
+    accelerometer cannot see). ``lever``: the fitted distance of the board below the
+    point it rotates about, m. ``up``: the mean specific-force direction (sensor frame).
+    """
+
+    bias: Array
+    std_error: Array
+    tilt: float
+    rate: float
+    rate_vertical: bool
+    lever: float
+    up: Array
+
+
+def _hann(length: float, dt: float) -> tuple[Array, Array]:
+    """A Hann window of ``length`` seconds as a low-pass kernel (sum 1) and its time derivative
+    (per second), sampled every ``dt``. Its spectrum is zero at multiples of 1 / length
+    from 2 / length on and its sidelobes fall as f^-3 (F. J. Harris, "On the use of windows
+    for harmonic analysis with the discrete Fourier transform", Proc. IEEE 66 (1978) 51-83,
+    sec. V.C), so a length of 2 / TREMOR_MIN_HZ all but removes the tremor band."""
+    m = max(3, round(length / dt))
+    x = math.pi * (np.arange(m) + 0.5) / m
+    k, dk = np.sin(x) ** 2, 2.0 * np.sin(x) * np.cos(x) * math.pi / (m * dt)
+    return k / k.sum(), dk / k.sum()
+
+
+def _smooth(x: Array, kernel: Array) -> Array:
+    """``x`` (N,) or each column of ``x`` (N, 3) convolved with ``kernel`` where it fits
+    (N - len(kernel) + 1 rows)."""
+    m = len(kernel)
+    return np.lib.stride_tricks.sliding_window_view(x, m, axis=0) @ kernel[::-1]
+
+
+def _rotation_vectors(t: Array, gyr: Array) -> Array:
+    """The board's rotation since the first sample (rotation vectors, sensor frame), integrating
+    q' = q (0, w) / 2 (Sola 2017, sec. 4.6) exactly per step with the step's mean rate; exact
+    products keep a coning tremor from posing as a rate (the mean of w is not the bias then)."""
+    out = np.zeros((len(t), 3))
+    w, x, y, z = 1.0, 0.0, 0.0, 0.0
+    for i in range(1, len(t)):
+        h = 0.25 * (float(t[i]) - float(t[i - 1]))  # half the step's angle per unit of summed rate
+        ax = (float(gyr[i, 0]) + float(gyr[i - 1, 0])) * h
+        ay = (float(gyr[i, 1]) + float(gyr[i - 1, 1])) * h
+        az = (float(gyr[i, 2]) + float(gyr[i - 1, 2])) * h
+        n = math.sqrt(ax * ax + ay * ay + az * az)
+        c, s = math.cos(n), (math.sin(n) / n if n > 0.0 else 1.0)
+        bx, by, bz = ax * s, ay * s, az * s
+        w, x, y, z = (w * c - x * bx - y * by - z * bz, w * bx + x * c + y * bz - z * by,
+                      w * by - x * bz + y * c + z * bx, w * bz + x * by - y * bx + z * c)
+        v = math.sqrt(x * x + y * y + z * z)
+        angle = 2.0 * math.atan2(v, w) / v if v > 0.0 else 2.0
+        out[i] = (x * angle, y * angle, z * angle)
+    return out
+
+
+def _basis(up: Array) -> Array:
+    """Rows e1, e2, up: two horizontal unit vectors and the vertical (sensor frame)."""
+    seed = np.array([1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(up, seed)
+    e1 /= np.linalg.norm(e1)
+    return np.stack([e1, np.cross(up, e1), up])
+
+
+def _lstsq(x: Array, y: Array, scale: float) -> tuple[Array, Array, Array]:
+    """Least squares y ~ x s: the solution, its standard errors and the residual.
+
+    The residual is a low-passed one, its samples correlated over the kernel, so the
+    white-noise standard errors are inflated by ``scale`` = 1 / sum(kernel^2), the
+    kernel's equivalent noise length in samples (Harris 1978, sec. IV.B)."""
+    s: Array = np.linalg.lstsq(x, y, rcond=None)[0].astype(np.float64)
+    e = y - x @ s
+    var = float(e @ e) / max(1, len(y) - x.shape[1]) * scale
+    return s, np.sqrt(var * np.diag(np.linalg.pinv(x.T @ x))), e
+
+
+def fit_hold(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
+             params: StartupParams | None = None) -> HoldFit:
+    """The gyroscope bias of a hold and how the arm moved during it.
+
+    While "still" a real arm trembles and sways, so the mean rate is the bias plus the
+    arm's net rotation over the hold divided by its length. The accelerometer shows
+    the rotation about horizontal axes: at rest it reads g along the sensor's up
+    ``u``, and a small rotation theta turns it to g (u - theta x u), so
+    c = (a x u) / g is the rotation's horizontal part (seed 003 sec. 2.1's
+    a = R^T (p'' - g), linearised). Against the integrated gyroscope phi (which
+    includes b t), r = phi - c = b t + const about horizontal axes, whatever the
+    sway. The board sits a lever arm rho below the joint it turns about, so the
+    accelerometer also feels the tangential acceleration w' x r_s
+    (r_s = -rho u): c gains rho w'_h / g, the term Seel, Raisch & Schauer
+    ("IMU-based joint angle measurement for gait analysis", Sensors 14 (2014)
+    6891-6909, sec. 3.1, eq. 5) use to locate joints; rho is fitted with b.
+    Tremor up to several g at the elbow is so explained, and left to the low-pass.
+
+    Both sides are low-passed alike (VQF judges rest on low-passed signals,
+    Laidig & Seel 2023, sec. 3.3; here the whole hold is at hand, so a zero-phase
+    Hann window, :func:`_hann`, without lag or start-up transient), then
+    r = b t + beta - rho w'_h / g is solved by least squares about the horizontal
+    axes, phi_up = b t + beta about the vertical (which the accelerometer cannot
+    see), twice, integrating again with the bias found. The tilt is the
+    horizontal part of the low-passed, bias-corrected rotation from the first to
+    the last low-passed sample; the unexplained rate is the time derivative of the
+    fit's residual.
+    """
+    p = params or StartupParams()
+    tt = np.asarray(t, dtype=np.float64)
+    g, a = _rows(gyr, "gyr"), _rows(acc, "acc")
+    dt = float(np.median(np.diff(tt)))
+    kernel, dkernel = _hann(p.smoothing, dt)
+    mean = a.mean(axis=0)
+    gravity = float(np.linalg.norm(mean))
+    basis = _basis(mean / gravity)
+    tau = _smooth(tt - tt[0], kernel)
+    tilt_c = _smooth(np.cross(a, basis[2]) / gravity, kernel) @ basis.T
+    dw = _smooth(g, dkernel) @ basis.T  # the low-passed angular acceleration, basis frame
+    n, scale = len(tau), 1.0 / float(kernel @ kernel)
+    x_h = np.zeros((2 * n, 5))  # unknowns: b_e1, b_e2, beta_e1, beta_e2, rho
+    x_h[:n, 0], x_h[n:, 1], x_h[:n, 2], x_h[n:, 3] = tau, tau, 1.0, 1.0
+    x_h[:, 4] = -np.concatenate([dw[:, 0], dw[:, 1]]) / gravity
+    x_v = np.stack([tau, np.ones(n)], axis=1)
+    bias = np.zeros(3)
+    for _ in range(2):
+        phi = _smooth(_rotation_vectors(tt, g - bias), kernel) @ basis.T
+        r = phi - tilt_c
+        s_h, se_h, e_h = _lstsq(x_h, np.concatenate([r[:, 0], r[:, 1]]), scale)
+        s_v, _, e_v = _lstsq(x_v, phi[:, 2], scale)
+        step = np.array([s_h[0], s_h[1], s_v[0]])
+        bias = bias + step @ basis
+    moved = (phi[-1] - phi[0]) - step * (tau[-1] - tau[0])
+    residual = np.stack([e_h[:n], e_h[n:], e_v], axis=1)
+    rate = np.gradient(residual, tau, axis=0)
+    norms = np.linalg.norm(rate, axis=1)
+    worst = int(np.argmax(norms))
+    se_v = math.sqrt(float(np.mean(rate[:, 2] ** 2)) / (n * float(kernel @ kernel)))
+    std_error = np.sqrt(np.array([se_h[0], se_h[1], se_v]) ** 2 @ basis ** 2)
+    return HoldFit(bias, std_error, float(math.hypot(moved[0], moved[1])), float(norms[worst]),
+                   bool(abs(rate[worst, 2]) > math.hypot(rate[worst, 0], rate[worst, 1])),
+                   float(s_h[4]), basis[2].copy())
+
+
+def _hold_problem(fit: HoldFit, p: StartupParams) -> str | None:
+    """Why a fitted hold was not still, or None."""
+    if fit.tilt > p.max_tilt:
+        return (f"the arm tilted {fit.tilt / DEG:.1f} degrees during the hold (a still arm "
+                f"sways less than {p.max_tilt / DEG:.1f})")
+    if fit.rate > p.max_rate:
+        what = ("the arm turned about the vertical" if fit.rate_vertical
+                else "the arm moved more than its tilt shows (the body or shoulder moved?)")
+        return (f"{what} at up to {fit.rate / DEG:.1f} deg/s (still means under "
+                f"{p.max_rate / DEG:.1f} deg/s)")
+    return None
+
+
 def _startup_problem(t: Array, gyr: Array, acc: Array, p: StartupParams) -> str | None:
-    """Why a start-up window cannot give a bias, or None."""
+    """Why a start-up window cannot be judged at all, or None."""
     if not (len(t) == len(gyr) == len(acc)):
         return "the sample arrays differ in length"
     if len(t) < 2:
         return f"no samples; hold the board still for {p.duration:g} s"
     if not (np.all(np.isfinite(t)) and np.all(np.isfinite(gyr)) and np.all(np.isfinite(acc))):
         return "some readings are missing or not finite; try again"
-    if _covered(t) < p.duration - 1e-9:
+    if not np.all(np.diff(t) > 0):
+        return "the sample times do not increase; try again"
+    if _covered(t) < max(p.duration, 2.0 * p.smoothing) - 1e-9:
         return (f"only {_covered(t):.2f} s of samples; hold the board still for "
                 f"{p.duration:g} s")
-    moved = _motion(gyr, acc, p.rest)
-    if moved:
-        return f"the board moved during start-up: {moved}; hold it still and try again"
-    mean = gyr.mean(axis=0)
-    if np.max(np.abs(mean)) > p.max_bias:
-        return (f"the gyroscope read {_deg(mean)} while still, more than the "
-                f"{p.max_bias / DEG:g} deg/s a resting MPU-9250 shows: the board was turning "
-                f"slowly, or its gyroscope is faulty; hold it still and try again")
+    if np.linalg.norm(acc.mean(axis=0)) < 0.5 * GRAVITY:
+        return "the accelerometer reads far less than gravity; is the board in free fall?"
     return None
 
 
 def startup_bias(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
                  params: StartupParams | None = None) -> BiasResult:
-    """The gyroscope bias from a "hold still" window at start-up: the mean rate.
+    """The gyroscope bias from a "hold still" window at start-up.
 
     ``t`` is (N,) seconds, ``gyr`` (N, 3) rad/s, ``acc`` (N, 3) m/s^2. At rest the
-    gyroscope reads only bias plus noise (seed 002 sec. 2.2), so the mean of N
-    samples estimates the bias with standard error sigma / sqrt(N) per axis (for
-    white noise of std sigma). A window that is too short, in which the board moved,
-    or whose mean rate is implausibly large, is refused with the reason.
+    gyroscope reads only bias plus noise (seed 002 sec. 2.2); a person's arm also
+    trembles and sways, which :func:`fit_hold` separates from the bias. The hold is
+    refused, with the reason, when it is too short, when the arm tilted further
+    than sway can (``max_tilt``), when it turned in a way its tilt does not explain
+    (``max_rate``, a turn about the vertical for instance), or when the bias found is
+    implausibly large (``max_bias``).
     """
     p = params or StartupParams()
     tt = np.asarray(t, dtype=np.float64)
     g, a = _rows(gyr, "gyr"), _rows(acc, "acc")
     problem = _startup_problem(tt, g, a, p)
-    if problem:
-        return BiasResult(False, problem, np.zeros(3), np.zeros(3), _covered(tt))
-    bias = g.mean(axis=0)
-    std_error = g.std(axis=0, ddof=1) / math.sqrt(len(g))
-    return BiasResult(True, f"gyroscope bias {_deg(bias)} from {_covered(tt):.1f} s still",
-                      bias, std_error, _covered(tt))
+    fit = None if problem else fit_hold(tt, g, a, p)
+    if fit is not None:
+        moved = _hold_problem(fit, p)
+        if moved:
+            problem = f"the board moved during start-up: {moved}; hold it still and try again"
+        elif np.max(np.abs(fit.bias)) > p.max_bias:
+            problem = (f"the gyroscope read {_deg(fit.bias)} while still, more than the "
+                       f"{p.max_bias / DEG:g} deg/s a resting MPU-9250 shows: the board was "
+                       f"turning slowly, or its gyroscope is faulty; hold it still and try again")
+    if problem or fit is None:
+        return BiasResult(False, problem or "", np.zeros(3), np.zeros(3), _covered(tt))
+    return BiasResult(True, f"gyroscope bias {_deg(fit.bias)} (+-{np.max(fit.std_error) / DEG:.2f}) "
+                      f"from {_covered(tt):.1f} s still", fit.bias, fit.std_error, _covered(tt))
+
+
+# ----------------------------------------------------------------- gyroscope bias in use
 
 
 @dataclass(frozen=True)
@@ -464,6 +627,23 @@ def _label(mean: Array) -> tuple[str, float]:
     axis = int(np.argmax(np.abs(mean)))
     cos_tilt = abs(mean[axis]) / np.linalg.norm(mean)
     return ("+" if mean[axis] > 0 else "-") + "xyz"[axis], math.acos(min(1.0, cos_tilt))
+
+
+def _motion(gyr: Array, acc: Array, p: RestParams) -> str | None:
+    """Why a window of samples is not still, or None.
+
+    The window form of VQF's rest test: every sample must lie within the rest
+    thresholds of the window's mean (the mean stands in for the low-pass).
+    """
+    dg = float(np.max(np.linalg.norm(gyr - gyr.mean(axis=0), axis=1)))
+    da = float(np.max(np.linalg.norm(acc - acc.mean(axis=0), axis=1)))
+    if dg >= p.gyr_threshold:
+        return (f"the gyroscope strayed {dg / DEG:.1f} deg/s from its mean "
+                f"(still means under {p.gyr_threshold / DEG:.1f} deg/s)")
+    if da >= p.acc_threshold:
+        return (f"the accelerometer strayed {da:.2f} m/s^2 from its mean "
+                f"(still means under {p.acc_threshold:.2f} m/s^2)")
+    return None
 
 
 def _pose_problem(poses: Sequence[Pose], first: int, p: PoseParams) -> str | None:
