@@ -138,15 +138,39 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+ENVELOPE_COLUMNS = (("calibration_ok_rate", "calib ok"), ("launch_precision", "precision"),
+                    ("launch_recall", "recall"), ("false_launches_per_min", "false/min"),
+                    ("aim_error_deg_median", "aim med"), ("aim_error_deg_p95", "aim p95"),
+                    ("aim_error_deg_median_late", "aim late"), ("latency_ms_median", "lat med"),
+                    ("latency_ms_p95", "lat p95"), ("launches", "launches"))
+
+
+def envelope_table(players: dict[str, dict]) -> str:
+    """The envelope as a plain-text table, one row per player."""
+    width = max(len(name) for name in players)
+    rows = [f"{'player':{width}s}  " + "  ".join(f"{title:>9s}" for _, title in ENVELOPE_COLUMNS)]
+    for name, report in players.items():
+        rows.append(f"{name:{width}s}  " + "  ".join(f"{'-' if report[key] is None else report[key]:>9}"
+                                                      for key, _ in ENVELOPE_COLUMNS))
+    return "\n".join(rows)
+
+
 def cmd_gestures_eval(args: argparse.Namespace) -> int:
-    from .gesture_eval import evaluate
-    report = evaluate(_profile(args.profile), args.trials, args.seed, args.gestures,
-                      progress=lambda text: print(text, file=sys.stderr, flush=True))
+    from .gesture_eval import evaluate, evaluate_envelope
+    from .motion_model import catalogue
+    progress = lambda text: print(text, file=sys.stderr, flush=True)  # noqa: E731
+    if args.envelope and getattr(args, "profile", None):
+        raise UsageError("--envelope runs every catalogue player; --profile runs one: give one of them")
+    if args.envelope:
+        report = evaluate_envelope(catalogue(), args.trials, args.seed, args.gestures, progress)
+        print(json.dumps(report) if args.json else envelope_table(report["players"]))
+        return 0
+    report = evaluate(_profile(args.profile), args.trials, args.seed, args.gestures, progress)
     if args.json:
         print(json.dumps(report))
     else:
         for key, value in report.items():
-            print(f"{key:24s} {value}")
+            print(f"{key:26s} {value}")
     return 0
 
 
@@ -205,6 +229,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=_seed, default=argparse.SUPPRESS)
     p.add_argument("--profile", metavar="FILE.json", default=argparse.SUPPRESS,
                    help="the simulated player (README lists the keys)")
+    p.add_argument("--envelope", action="store_true",
+                   help="run every player of the catalogue (game/profiles), one row each")
     p.add_argument("--json", action="store_true", default=argparse.SUPPRESS)
     p.set_defaults(func=cmd_gestures_eval, options=("profile", "json"))
 

@@ -227,7 +227,7 @@ def run_match(config: MatchConfig, progress: Callable[[str], None] | None = None
         game = app.game
         if config.endless:
             game.arena_settings = ArenaSettings(contact_damage_per_s=0.0)
-        source = WireInput(wire, Tracking(board=maker_calibration(profile, seed)))
+        source = WireInput(wire, Tracking(board=maker_calibration(profile, seed)[0]))
         game.use_source(source)
         walking = [Controls()]
         game.walker = lambda: walking[0]

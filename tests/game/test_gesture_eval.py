@@ -1,6 +1,7 @@
 """The gesture evaluation: matching worked by hand, and a short run of the real pipeline."""
 
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -41,6 +42,34 @@ def test_matching_worked_by_hand():
     assert report["launch_precision"] == pytest.approx(1 / 3, abs=1e-4)
     assert report["launch_recall"] == 0.5
     assert report["false_launches_per_min"] == 2.0
+    assert report["aim_error_deg_median_late"] is None  # no launch counted as late
+    assert report["calibration_ok_rate"] == 0.0  # the result never said its calibration worked
+
+
+def test_late_launches_are_those_made_in_the_last_quarter():
+    truth = fake_session()  # true launches cross at 10.2 s and 20.15 s
+    c, s = np.cos(np.radians(3)), np.sin(np.radians(3))
+    events = [launch(10.25, (s, c, 0.0)), launch(20.2, (1.0, 0.0, 0.0))]
+    result = TrialResult(true_launches=2, calibration_ok=True)
+    score_launches(truth.launches, truth.idle_intervals, events, result, late_from=15.0)
+    assert result.aim_errors_deg == pytest.approx([3.0, 0.0], abs=1e-6)
+    assert result.late_aim_errors_deg == pytest.approx([0.0], abs=1e-6)  # only the second
+    report = summarise([result, TrialResult(calibration_ok=False)])
+    assert report["aim_error_deg_median_late"] == 0.0
+    assert report["calibration_ok_rate"] == 0.5
+
+
+def test_a_failed_maker_calibration_is_a_reported_figure(monkeypatch):
+    import game.gesture_eval as E
+    from tracker.calibration import SixPoseResult
+
+    def refuse(poses):
+        return SixPoseResult(False, "pose +x moved", np.zeros(3), np.ones(3), np.eye(3), math.nan)
+
+    monkeypatch.setattr(E, "six_pose_calibration", refuse)
+    result = run_trial(PlayerProfile(), 5, gestures=1)
+    assert not result.calibration_ok
+    assert result.calibration.startswith("six-pose calibration failed: pose +x moved")
 
 
 def test_the_board_stream_arrives_whole():
@@ -84,4 +113,13 @@ def test_gestures_eval_json_shape():
     assert r.returncode == 0, r.stderr
     report = json.loads(r.stdout)
     assert {"launch_precision", "launch_recall", "false_launches_per_min", "latency_ms_median",
-            "latency_ms_p95", "aim_error_deg_median", "aim_error_deg_p95", "trials"} <= set(report)
+            "latency_ms_p95", "aim_error_deg_median", "aim_error_deg_p95", "aim_error_deg_median_late",
+            "calibration_ok_rate", "trials"} <= set(report)
+
+
+def test_envelope_and_profile_do_not_go_together(tmp_path):
+    path = tmp_path / "p.json"
+    path.write_text("{}")
+    r = energyball("gestures-eval", "--envelope", "--profile", str(path))
+    assert r.returncode == 1 and "Traceback" not in r.stderr
+    assert "--envelope" in r.stderr and len(r.stderr.strip().splitlines()) == 1
