@@ -77,9 +77,9 @@ from tracker import quat as Q
 from tracker.flex import FlexSensor
 from tracker.fusion.qmath import as_quat, as_vec
 from tracker.sim import (
-    TYPICAL_FLEX_CREEP_PCT, TYPICAL_FLEX_HYSTERESIS_PCT, TYPICAL_GYRO_BIAS_DPS, TYPICAL_GYRO_WARMUP_DPS, TYPICAL_MAG_DISTURBANCE_UT,
-    TYPICAL_MAG_HARD_IRON_UT, TYPICAL_MAG_SOFT_IRON_PCT, Chain, Motion, SensorErrors, arm_chain,
-    realistic_errors)
+    TYPICAL_FLEX_CREEP_PCT, TYPICAL_FLEX_HYSTERESIS_PCT, TYPICAL_GYRO_BIAS_DPS, TYPICAL_GYRO_WARMUP_DPS,
+    TYPICAL_MAG_DISTURBANCE_UT, TYPICAL_MAG_HARD_IRON_UT, TYPICAL_MAG_SOFT_IRON_PCT, Chain, Motion,
+    SensorErrors, arm_chain, realistic_errors)
 
 from .avatar import Wearing
 
