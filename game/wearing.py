@@ -24,11 +24,13 @@ from typing import Sequence
 import numpy as np
 
 from tracker import quat as Q
+from tracker.calibration import TREMOR_MIN_HZ, StartupParams
 
 from .avatar import Avatar, Wearing
 from .pose import ArmPose, Quat
 
-STILL_DEG = 4.0  # orientations during a pose must stay this close to their mean
+MOVE_DEG = math.degrees(StartupParams().max_tilt)  # a pose may drift this far (deg) from its start
+# to its end: a postural sway of up to 4 deg peak swings the arm up to 8 deg (the start-up hold's bound)
 FORWARD_RANGE_DEG = (60.0, 120.0)  # how far "arm straight forward" may be from "arm down"
 
 
@@ -48,20 +50,41 @@ def mean_orientation(quats: Sequence[Quat]) -> np.ndarray:
     return Q.normalize(q.mean(axis=0))
 
 
-def _spread_deg(quats: Sequence[Quat], mean: np.ndarray) -> float:
-    return float(np.degrees(Q.angle_between(np.asarray(quats, dtype=float), mean).max()))
+def _hann_mean(quats: np.ndarray, t: np.ndarray, t0: float, length: float) -> np.ndarray:
+    """The chordal mean of the orientations in [t0, t0 + length], Hann-weighted: a low-pass
+    whose first zero is at 2 / length (Harris 1978, sec. V.C), so tremor averages out."""
+    x = np.clip((t - t0) / length, 0.0, 1.0)
+    w = np.sin(np.pi * x) ** 2
+    if not w.any():  # no sample inside: the one nearest the window's centre
+        w[np.argmin(np.abs(t - (t0 + length / 2)))] = 1.0
+    return Q.normalize(w @ quats)
+
+
+def net_move_deg(poses: Sequence[ArmPose]) -> float:
+    """How far the arm turned (deg) from the start of a held pose to its end, tremor and sway aside.
+
+    Tremor and sway oscillate about the pose, a move persists: the low-passed
+    orientations at the two ends are compared (Hann windows of 2 / TREMOR_MIN_HZ, the
+    start-up hold's, or half the pose when it is shorter), which tremor at
+    TREMOR_MIN_HZ and above hardly reaches. Sway swings at most twice its peak.
+    """
+    q = np.asarray([p.q_upper for p in poses], dtype=float)
+    q = q * np.where(q @ q[0] < 0, -1.0, 1.0)[:, None]
+    t = np.asarray([p.t for p in poses], dtype=float)
+    length = max(1e-9, min(2.0 / TREMOR_MIN_HZ, (t[-1] - t[0]) / 2))
+    start, end = _hann_mean(q, t, t[0], length), _hann_mean(q, t, t[-1] - length, length)
+    return float(np.degrees(Q.angle_between(start, end)))
 
 
 def _still(poses: Sequence[ArmPose], what: str) -> tuple[np.ndarray | None, str]:
+    """The pose's mean orientation, or why the arm did not hold it."""
     if len(poses) < 2:
         return None, f"{what}: no samples arrived (is the board streaming?)"
-    quats = [p.q_upper for p in poses]
-    mean = mean_orientation(quats)
-    moved = _spread_deg(quats, mean)
-    if moved > STILL_DEG:
-        return None, (f"{what}: the arm moved {moved:.1f} degrees; hold it still "
-                      f"(within {STILL_DEG:.0f} degrees) and try again")
-    return mean, ""
+    moved = net_move_deg(poses)
+    if moved > MOVE_DEG:
+        return None, (f"{what}: the arm moved {moved:.1f} degrees during the pose; hold it still "
+                      f"(a still arm drifts less than {MOVE_DEG:.1f}) and try again")
+    return mean_orientation([p.q_upper for p in poses]), ""
 
 
 def _mount_from_axes(long_axis_s: np.ndarray, x_hint_s: np.ndarray) -> np.ndarray:
