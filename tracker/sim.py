@@ -29,19 +29,26 @@ rounded alike wherever it sits in a batch. Trajectories should be smooth: at a j
 samples within 1 ms err by O(h x jump).
 
 Sensor errors (seed 003, sec. 3: white noise, zero offset, both; MPU-9250
-data-sheet figures) are white noise, a constant offset, a random-walk drift,
-a scale error, quantisation and saturation (:class:`ErrorModel`). Random
-numbers come from ``numpy.random.SeedSequence(seed, spawn_key=...)`` keyed by
-sensor kind and block of sample indices, so an error is a function of the
-sample index alone: a batch and a stream (:meth:`Simulator.stream`, which
-:class:`SimulatedSource` and so the virtual board read) give the same values
-for the same seed.
+data-sheet figures) are white noise, a constant offset, a warm-up drift of
+that offset, a random-walk drift, a scale error, quantisation and saturation
+(:class:`ErrorModel`). A real board adds its own magnetic errors and a room's
+field (:class:`MagneticErrors`) and the flex sensor's own dynamics
+(:class:`FlexDynamics`); :func:`realistic_errors` builds a typical board.
+Random numbers come from ``numpy.random.SeedSequence(seed, spawn_key=...)``
+keyed by sensor kind and block of sample indices, so an error is a function
+of the sample index alone: a batch and a stream (:meth:`Simulator.stream`,
+which :class:`SimulatedSource` and so the virtual board read) give the same
+values for the same seed. The flex sensor's hysteresis and creep remember
+the past; :class:`SampleStream` keeps their state so that its blocks are
+still the batch's rows. Every error defaults to none, and the draws of each
+kind of error have their own spawn keys, so adding one leaves the others'
+values unchanged.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Callable
 
@@ -62,7 +69,11 @@ _D2 = np.array([-1.0, 16.0, -30.0, 16.0, -1.0]) / (12.0 * _H**2)  # f''
 _STENCIL = np.arange(-2, 3) * _H
 STENCIL_REACH_S = 2 * _H  # a simulated sample depends on the motion this close to its time, no further
 _CHUNK = 4096  # samples per block of random numbers
-_KINDS = ("gyr", "acc", "mag", "flex")
+_KINDS = ("gyr", "acc", "mag", "flex")  # their index is their spawn key: 0-3
+_WARMUP_KEY = 3  # a kind's warm-up direction: spawn key (kind, 3), beside (kind, 0-2)
+_MAG_KEY = 4  # the board's hard and soft iron, and the room's field
+_FLEX_KEY = 5  # the flex sensor's nonlinearity
+_MAG_MODES = 4  # spatial modes of the room's field disturbance
 
 # MPU-9250 product specification (PS-MPU-9250A-01 rev. 1.1), sec. 3.1-3.2; AK8963 in 16-bit mode.
 GYR_NOISE_DENSITY = math.radians(0.01)  # rad/s/sqrt(Hz)
@@ -71,6 +82,25 @@ ACC_NOISE_DENSITY = 300e-6 * STANDARD_GRAVITY  # m/s^2/sqrt(Hz)
 ACC_OFFSET_MAX = 60e-3 * STANDARD_GRAVITY  # m/s^2, zero-g initial tolerance (x, y)
 SCALE_TOLERANCE = 0.03  # initial sensitivity tolerance, gyroscope and accelerometer
 MAG_FULL_SCALE_UT = 4912.0
+# The AK8963's data sheet (MS1356-E-02) gives no noise figure. Consumer 3-axis compasses of its
+# class do: the Bosch BMM150 data sheet (BST-BMM150-DS001, electrical specification) gives an
+# output noise of 0.3-1.0 uT RMS per axis by its power preset, 0.6 uT at its regular preset. We
+# take 0.6 uT RMS at the AK8963's 100 Hz continuous mode (4 counts of 0.15 uT) as white noise.
+MAG_NOISE_RMS_UT = 0.6
+MAG_NOISE_DENSITY = MAG_NOISE_RMS_UT / math.sqrt(100.0)  # uT/sqrt(Hz)
+WARMUP_SPAN_S = 600.0  # ErrorModel.warmup is the offset's change over this long after power-on
+
+# The "typical" board and player's sensors (realistic_errors; game.motion_model.PlayerProfile's defaults).
+# Where each figure comes from: the docstrings of ErrorModel, MagneticErrors, FlexDynamics, realistic_errors.
+TYPICAL_GYRO_BIAS_DPS = 1.0  # each gyro axis's offset drawn within +-this (PS-MPU-9250A-01: +-5 at most)
+TYPICAL_GYRO_WARMUP_DPS = 1.0  # about 4 degC of warming at the data sheet's 0.24 deg/s per degC
+TYPICAL_MAG_HARD_IRON_UT = 30.0
+TYPICAL_MAG_SOFT_IRON_PCT = 5.0
+TYPICAL_MAG_DISTURBANCE_UT = 5.0
+TYPICAL_FLEX_HYSTERESIS_PCT = 4.0
+TYPICAL_FLEX_CREEP_PCT = 3.0
+TYPICAL_FLEX_NONLINEARITY_PCT = 2.0
+TYPICAL_FLEX_NOISE_COUNTS = 0.5  # RMS ADC counts at 200 Hz; the ATmega328P ADC's absolute accuracy is 2 LSB
 
 
 @dataclass(frozen=True)
@@ -133,11 +163,28 @@ class Motion:
 class ErrorModel:
     """What one sensor adds to the truth, axis by axis (seed 003, sec. 3).
 
-    measured = saturate(quantise((1 + scale) truth + offset + drift + noise)),
+    measured = saturate(quantise((1 + scale) truth + offset + w(t) + drift + noise)),
     with the scale and offset drawn once per axis, uniformly within their
     bounds (data sheets give tolerances, not distributions), the drift a
     random walk and the noise white. Units are the sensor's (rad/s, m/s^2,
     microtesla, volts for the flex circuit).
+
+    The warm-up w(t) is the offset's drift as the board warms after power-on
+    (sample 0, t = k / rate):
+
+        w(t) = warmup u (1 - exp(-t / tau)) / (1 - exp(-WARMUP_SPAN_S / tau)),
+
+    a first-order (lumped thermal) approach to the warm temperature, scaled so
+    that the offset has moved by exactly ``warmup`` after 600 s. The direction
+    u is drawn from the seed: a unit vector per sensor for three-axis sensors
+    (so the offset vector moves by ``warmup`` in all), a sign for the flex
+    circuit. For the gyroscope, the MPU-9250 product specification
+    (PS-MPU-9250A-01, sec. 3.1) gives a ZRO variation of +-30 deg/s over -40 to
+    +85 degC, 0.24 deg/s per degC; a board strapped on warms by a few degC
+    (its own 0.1 W or so, and the skin's 32-34 degC against a 20-25 degC room),
+    so 0-4 deg/s covers 0 to about 17 degC. The time constant is that of a few
+    grams of board (heat capacity about 5 J/K) losing heat to still air through
+    some 30-60 K/W: 150-300 s, hence ``warmup_tau_s`` = 150 s.
     """
 
     noise_density: float = 0.0  # white noise per sqrt(Hz): std = density * sqrt(rate)
@@ -146,16 +193,109 @@ class ErrorModel:
     scale_max: float = 0.0  # scale-factor error (fraction), drawn in [-scale_max, scale_max]
     resolution: float = 0.0  # one least significant bit; 0 = continuous
     full_scale: float = math.inf  # readings saturate at +-full_scale
+    warmup: float = 0.0  # the offset's change over the first WARMUP_SPAN_S after power-on (sample 0)
+    warmup_tau_s: float = 150.0  # thermal time constant of the warm-up curve
+
+
+@dataclass(frozen=True)
+class MagneticErrors:
+    """The magnetometer's errors on a real board and in a real room, in microtesla.
+
+    What the AK8963 measures (before the white noise, quantisation and
+    saturation of its :class:`ErrorModel`):
+
+        measured = (I + E) R_WS^T (m + d(p)) + h,
+
+    the earth's field m plus the room's disturbance d at the sensor's position
+    p, turned into the sensor frame, distorted by the soft iron I + E and
+    offset by the hard iron h (the measurement model of magnetometer
+    calibration, e.g. Kok and Schoen, "Maximum likelihood calibration of a
+    magnetometer using inertial sensors", IFAC World Congress 2014). Per
+    sensor, h has magnitude ``hard_iron_ut`` in a drawn direction and E is
+    symmetric with each entry drawn uniformly within +-``soft_iron``.
+
+    Ranges. The chip's own zero-field offset may reach +-500 counts of
+    0.6 uT, +-300 uT (PS-MPU-9250A-01, sec. 3.3); a board's magnetised parts
+    add to it, so 0-200 uT of hard iron. The AK8963's axes may differ in
+    sensitivity by up to +-50 % before its fuse-ROM adjustment (data sheet
+    MS1356-E-02, sec. 8.3.11); after it, and with a board's soft iron, a few
+    percent remain: 0-20 %. The room: magnetic-field mapping indoors finds anomalies of
+    tens of microtesla near steel (Li, Gallagher, Dempster and Rizos, "How
+    feasible is the use of magnetic field alone for indoor positioning?",
+    IPIN 2012; Haverinen and Kemppainen, Robotics and Autonomous Systems 57,
+    2009), and in a motion lab de Vries et al. (Gait & Posture 29, 2009,
+    535-541) found heading deviations with a standard deviation of 29 deg
+    5 cm above the floor and 3 deg above 1 m: 1-10 uT against a 20 uT
+    horizontal field. So 0-40 uT, typically a few.
+
+    The disturbance is a sum of ``_MAG_MODES`` spatial modes,
+    d(p) = sum_j c_j cos(k_j . p + phi_j), with |k_j| = 2 pi /
+    ``disturbance_scale_m`` in drawn directions, c_j perpendicular to k_j (so
+    div d = 0, as Gauss's law for magnetism asks) and the |c_j| summing to
+    ``disturbance_ut``: |d| <= ``disturbance_ut`` everywhere, its mean over a
+    region many wavelengths wide is near zero, and d changes on the scale of
+    ``disturbance_scale_m`` as the arm moves through it.
+    """
+
+    hard_iron_ut: float = 0.0  # magnitude of the board's constant field offset (direction drawn)
+    soft_iron: float = 0.0  # fraction; symmetric distortion I + E, |E_ij| <= soft_iron, drawn
+    disturbance_ut: float = 0.0  # bound of the room's field disturbance (its modes' amplitudes' sum)
+    disturbance_scale_m: float = 0.4  # the disturbance's wavelength
+
+
+@dataclass(frozen=True)
+class FlexDynamics:
+    """The flex sensor's own behaviour, as fractions of its straight-to-bent span.
+
+    Applied to the true elbow angle x (degrees) before the sensor's resistance
+    (:meth:`tracker.flex.FlexSensor.ohms`), with span = the sensor's
+    ``bent_deg`` and u = clip(x / span, 0, 1):
+
+    - nonlinearity: y = x + ``nonlinearity`` span g(u), g(u) = a1 sin(pi u) +
+      a2 sin(2 pi u) with (a1, a2) drawn and scaled so that max |g| = 1: zero
+      at both ends, peak ``nonlinearity`` of the span. g is a trigonometric
+      polynomial of degree 2 in pi u, so |g'| <= 2 pi (Bernstein's
+      inequality) and y stays increasing for ``nonlinearity`` < 1 / (2 pi).
+    - hysteresis: the play (backlash) operator of half width r =
+      ``hysteresis`` span / 2 on y, z_k = min(max(z_{k-1}, y_k - r), y_k + r)
+      (Krasnosel'skii and Pokrovskii, "Systems with Hysteresis", 1989; Brokate
+      and Sprekels, "Hysteresis and Phase Transitions", 1996), starting from
+      z = 0 (last seen straight):
+      a bend read rising lags by r, falling leads by r; the loop is
+      ``hysteresis`` of the span wide.
+    - creep: the reading relaxes (reads less bent) toward ``creep`` span u
+      with time constant ``creep_tau_s``, c' = (creep span u - c) / tau,
+      discretised exactly for a target held over each sample interval:
+      c_k = a c_{k-1} + (1 - a) T_{k-1}, a = exp(-1 / (rate tau)), c_0 = 0. Held
+      at u from power-on the reading is lower by creep span u (1 - exp(-t / tau)).
+
+    reading = z - c. Ranges: resistive (conductive-ink) flex sensors show
+    hysteresis and a relaxation of the resistance under a held bend of a few
+    percent up to about ten percent of their span, over seconds, and depart
+    from a straight line by a few percent (Saggio et al., "Resistive flex
+    sensors: a survey", Smart Mater. Struct. 25 (2016) 013001; Tiboni et al.,
+    "Test-bench for the characterization of flexion sensors used in
+    biomechanics", Electronics 10 (2021) 2994). The profile's range is 0-12 %
+    for each.
+    """
+
+    hysteresis: float = 0.0  # full width of the hysteresis loop
+    creep: float = 0.0  # relaxation of the reading while held fully bent (scaled by the bend)
+    creep_tau_s: float = 4.0  # time constant of that relaxation
+    nonlinearity: float = 0.0  # peak of the unit's smooth deviation from linear in angle
 
 
 @dataclass(frozen=True)
 class SensorErrors:
-    """Error models of the gyroscope, accelerometer, magnetometer and flex circuit (volts)."""
+    """Error models of the gyroscope, accelerometer, magnetometer and flex circuit (volts),
+    the board's and the room's magnetic errors and the flex sensor's dynamics."""
 
     gyr: ErrorModel = ErrorModel()
     acc: ErrorModel = ErrorModel()
     mag: ErrorModel = ErrorModel()
     flex: ErrorModel = ErrorModel()  # before the ADC, which quantises and saturates itself
+    magnetic: MagneticErrors = MagneticErrors()
+    flex_dynamics: FlexDynamics = FlexDynamics()
 
 
 def mpu9250(noise: bool = True, offset: bool = True, scale: bool = False,
@@ -164,8 +304,9 @@ def mpu9250(noise: bool = True, offset: bool = True, scale: bool = False,
 
     Seed 003 assumed calibrated scale factors, hence ``scale`` off by default.
     Quantisation and saturation are those of 16-bit counts at the full scales
-    (the virtual board's defaults). The AK8963's data gives no noise figure, so
-    the magnetometer is only quantised (0.15 uT) and saturated.
+    (the virtual board's defaults). The magnetometer has white noise
+    (:data:`MAG_NOISE_DENSITY`), is quantised (0.15 uT) and saturated; the
+    chip alone, on no board and in no room (see :func:`realistic_errors`).
     """
     gyr_fs, acc_fs = math.radians(gyr_fs_dps), acc_fs_g * STANDARD_GRAVITY
     return SensorErrors(
@@ -175,7 +316,49 @@ def mpu9250(noise: bool = True, offset: bool = True, scale: bool = False,
         acc=ErrorModel(noise_density=ACC_NOISE_DENSITY * noise, offset_max=ACC_OFFSET_MAX * offset,
                        scale_max=SCALE_TOLERANCE * scale, resolution=acc_fs / 32768,
                        full_scale=acc_fs),
-        mag=ErrorModel(resolution=MAG_UT_PER_COUNT, full_scale=MAG_FULL_SCALE_UT),
+        mag=ErrorModel(noise_density=MAG_NOISE_DENSITY * noise, resolution=MAG_UT_PER_COUNT,
+                       full_scale=MAG_FULL_SCALE_UT),
+    )
+
+
+def realistic_errors(gyro_bias_dps: float = TYPICAL_GYRO_BIAS_DPS, noise_scale: float = 1.0,
+                     gyro_warmup_dps: float = TYPICAL_GYRO_WARMUP_DPS,
+                     mag_hard_iron_ut: float = TYPICAL_MAG_HARD_IRON_UT,
+                     mag_soft_iron_pct: float = TYPICAL_MAG_SOFT_IRON_PCT,
+                     mag_disturbance_ut: float = TYPICAL_MAG_DISTURBANCE_UT,
+                     flex_hysteresis_pct: float = TYPICAL_FLEX_HYSTERESIS_PCT,
+                     flex_creep_pct: float = TYPICAL_FLEX_CREEP_PCT,
+                     flex_nonlinearity_pct: float = TYPICAL_FLEX_NONLINEARITY_PCT) -> SensorErrors:
+    """A real board's errors from figures in a player profile's units (deg/s, uT, percent).
+
+    :func:`mpu9250` (data-sheet noise, offsets, 16-bit counts) with the
+    gyroscope's offsets drawn within +-``gyro_bias_dps`` and warming by
+    ``gyro_warmup_dps`` over 10 minutes (:class:`ErrorModel`), the IMU's noise
+    densities times ``noise_scale``, the board's and the room's magnetic
+    errors (:class:`MagneticErrors`), the flex sensor's dynamics
+    (:class:`FlexDynamics`) and :data:`TYPICAL_FLEX_NOISE_COUNTS` of noise on
+    the flex circuit. The defaults, the TYPICAL_* constants, are a typical
+    board within the cited ranges: gyroscope offsets within +-1 deg/s (the
+    data sheet allows +-5), 4 degC of warming (1 deg/s), 30 uT of hard iron
+    and 5 % of soft iron, 5 uT of room disturbance
+    (de Vries et al. 2009's 3 deg of heading spread above 1 m, in a 20 uT
+    horizontal field, is about 1 uT; a living room's furniture and floor
+    more), a flex sensor with 4 % hysteresis, 3 % creep and 2 % nonlinearity
+    (Saggio et al. 2016).
+    """
+    base = mpu9250()
+    circuit = FlexCircuit()
+    gyr = replace(base.gyr, noise_density=base.gyr.noise_density * noise_scale,
+                  offset_max=math.radians(gyro_bias_dps), warmup=math.radians(gyro_warmup_dps))
+    return SensorErrors(
+        gyr=gyr,
+        acc=replace(base.acc, noise_density=base.acc.noise_density * noise_scale),
+        mag=replace(base.mag, noise_density=base.mag.noise_density * noise_scale),
+        flex=ErrorModel(noise_density=TYPICAL_FLEX_NOISE_COUNTS * circuit.lsb_v / math.sqrt(200.0)),
+        magnetic=MagneticErrors(hard_iron_ut=mag_hard_iron_ut, soft_iron=mag_soft_iron_pct / 100.0,
+                                disturbance_ut=mag_disturbance_ut),
+        flex_dynamics=FlexDynamics(hysteresis=flex_hysteresis_pct / 100.0, creep=flex_creep_pct / 100.0,
+                                   nonlinearity=flex_nonlinearity_pct / 100.0),
     )
 
 
@@ -191,6 +374,7 @@ class Truth:
     acc: Array  # (N, S, 3) specific force, m/s^2
     mag: Array  # (N, S, 3) microtesla
     flex_deg: Array  # (N,) the flexed joint in degrees (0 without one)
+    p_sensors: Array  # (N, S, 3) sensor positions in the world, metres
 
 
 @dataclass(frozen=True)
@@ -205,6 +389,10 @@ class SimData:
     truth: Truth
     offset: dict[str, Array]  # the constant offsets drawn, by kind ("gyr", "acc", "mag", "flex")
     scale: dict[str, Array]  # the scale factors 1 + error drawn, by kind
+    warmup: dict[str, Array]  # the offsets' change after WARMUP_SPAN_S (warmup * u), by kind
+    hard_iron: Array  # (S, 3) uT, the board's hard iron drawn
+    soft_iron: Array  # (S, 3, 3) the soft-iron matrices I + E drawn
+    flex_reading_deg: Array  # (N,) the angle the flex sensor reports, after its dynamics
 
 
 def _stencil_sum(weights: Array, x: Array) -> Array:
@@ -220,6 +408,20 @@ def _rng(seed: int, *key: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=key))
 
 
+def _directions(rng: np.random.Generator, shape: tuple[int, ...]) -> Array:
+    """Random directions: unit vectors (isotropic) along a last axis of 3, else signs."""
+    v = rng.standard_normal(shape)
+    if shape and shape[-1] == 3:
+        return v / np.linalg.norm(v, axis=-1, keepdims=True)
+    return np.sign(v)
+
+
+def _matvec(m: Array, v: Array) -> Array:
+    """m v over the last axes, summed term by term (every sample rounded alike)."""
+    terms = m * v[..., None, :]
+    return terms[..., 0] + terms[..., 1] + terms[..., 2]
+
+
 class _ErrorProcess:
     """One kind of sensor's errors as a function of the sample index (same index, same error)."""
 
@@ -229,6 +431,12 @@ class _ErrorProcess:
         rng = _rng(seed, kind, 0)
         self.offset = rng.uniform(-model.offset_max, model.offset_max, shape)
         self.scale = 1.0 + rng.uniform(-model.scale_max, model.scale_max, shape)
+        self.warmup = np.zeros(shape)
+        if model.warmup:
+            if not model.warmup_tau_s > 0:
+                raise ValueError(f"a warm-up needs a time constant above 0 s, not {model.warmup_tau_s}")
+            self.warmup = model.warmup * _directions(_rng(seed, kind, _WARMUP_KEY), shape)
+        self.rate_hz = rate_hz
         self._white_std = model.noise_density * math.sqrt(rate_hz)
         self._step_std = model.drift / math.sqrt(rate_hz)
         self._walk_starts = [np.zeros(shape)]  # the drift before each block
@@ -254,6 +462,8 @@ class _ErrorProcess:
         """The measurement of ``truth`` (k, *shape) taken as samples number ``k``."""
         m = self.model
         x = self.scale * truth + self.offset
+        if m.warmup:
+            x = x + self._warmup_curve(k).reshape((-1,) + (1,) * len(self.shape)) * self.warmup
         if self._white_std or self._step_std:
             noise = np.empty_like(x)
             for b in np.unique(k // _CHUNK):
@@ -263,6 +473,153 @@ class _ErrorProcess:
         if m.resolution > 0:
             x = np.round(x / m.resolution) * m.resolution
         return np.clip(x, -m.full_scale, m.full_scale)
+
+    def _warmup_curve(self, k: NDArray[np.int64]) -> Array:
+        """(1 - exp(-t / tau)) / (1 - exp(-WARMUP_SPAN_S / tau)) at t = k / rate (:class:`ErrorModel`)."""
+        tau = self.model.warmup_tau_s
+        return np.expm1(-(k / self.rate_hz) / tau) / math.expm1(-WARMUP_SPAN_S / tau)
+
+
+class _MagneticProcess:
+    """The board's hard and soft iron and the room's field, drawn once (:class:`MagneticErrors`)."""
+
+    def __init__(self, model: MagneticErrors, sensors: int, seed: int) -> None:
+        self.model = model
+        rng = _rng(seed, _MAG_KEY, 0)
+        self.hard_iron = model.hard_iron_ut * _directions(rng, (sensors, 3))
+        e = rng.uniform(-model.soft_iron, model.soft_iron, (sensors, 3, 3))
+        self.soft_iron = np.eye(3) + np.triu(e) + np.swapaxes(np.triu(e, 1), -1, -2)
+        rng = _rng(seed, _MAG_KEY, 1)
+        along = _directions(rng, (_MAG_MODES, 3))
+        across = rng.standard_normal((_MAG_MODES, 3))
+        across -= np.sum(across * along, axis=1, keepdims=True) * along  # c_j perpendicular to k_j
+        share = rng.uniform(0.5, 1.5, _MAG_MODES)
+        size = model.disturbance_ut * share / share.sum()
+        self._amplitudes = size[:, None] * across / np.linalg.norm(across, axis=1, keepdims=True)
+        if model.disturbance_ut and not model.disturbance_scale_m > 0:
+            raise ValueError(f"a magnetic disturbance needs a scale above 0 m, "
+                             f"not {model.disturbance_scale_m}")
+        self._wavevectors = along * (2 * math.pi / model.disturbance_scale_m if model.disturbance_ut else 0.0)
+        self._phases = rng.uniform(0.0, 2 * math.pi, _MAG_MODES)
+
+    def disturbance(self, p: Array) -> Array:
+        """d(p) = sum_j c_j cos(k_j . p + phi_j), uT, at positions ``p`` (..., 3) in metres."""
+        d = np.zeros(p.shape)
+        for k, c, phase in zip(self._wavevectors, self._amplitudes, self._phases):
+            d = d + np.cos(p[..., 0:1] * k[0] + p[..., 1:2] * k[1] + p[..., 2:3] * k[2] + phase) * c
+        return d
+
+    def field(self, truth: Truth) -> Array:
+        """What the magnetometers feel before their own errors: (I + E) R^T (m + d(p)) + h."""
+        if self.model == MagneticErrors():
+            return truth.mag
+        body = truth.mag
+        if self.model.disturbance_ut:
+            body = body + quat.rotate(quat.conjugate(truth.q_sensors), self.disturbance(truth.p_sensors))
+        return _matvec(self.soft_iron, body) + self.hard_iron
+
+
+State = tuple[float, float, float]  # the flex dynamics after a sample: play output, creep, creep target
+
+
+class _FlexProcess:
+    """The flex sensor's dynamics (:class:`FlexDynamics`) on the true elbow angle, in degrees.
+
+    Hysteresis and creep remember the past, so the reading of sample k
+    depends on every sample before it. The process keeps the state before
+    each sample of the latest block, and before every multiple of the random
+    numbers' block (4096 samples). A block that starts inside the latest
+    block (a stream going on, or the simulated board computing again from an
+    edit of the motion) resumes from the state kept there; any other starts
+    from the nearest kept state before it, recomputing the true angles in
+    between from the motion. A block's start forgets the states kept after
+    it, so a motion changed after that start is honoured. So a block equals
+    the same rows of a batch, as long as the motion before the block's start
+    is what it was when those samples were first computed (the motion may
+    change, or forget its past, only after the samples already taken: the
+    contract of :class:`SampleStream`).
+    """
+
+    def __init__(self, model: FlexDynamics, span_deg: float, rate_hz: float, seed: int) -> None:
+        if not 0 <= model.nonlinearity < 1 / (2 * math.pi):
+            raise ValueError(f"a flex nonlinearity must lie in [0, 1/(2 pi)) to keep the sensor "
+                             f"monotonic, not {model.nonlinearity}")
+        if model.creep and not model.creep_tau_s > 0:
+            raise ValueError(f"flex creep needs a time constant above 0 s, not {model.creep_tau_s}")
+        self.model, self.span = model, span_deg
+        self._bow = self._draw_bow(seed)
+        self._half_width = model.hysteresis * span_deg / 2
+        self._decay = math.exp(-1.0 / (rate_hz * model.creep_tau_s)) if model.creep else 0.0
+        self._stateful = model.hysteresis > 0 or model.creep > 0
+        self._marks: dict[int, State] = {0: (0.0, 0.0, 0.0)}  # sample index -> the state before it
+        self._trail: tuple[int, Array] = (0, np.zeros((1, 3)))  # the states before the latest block's samples
+
+    @staticmethod
+    def _draw_bow(seed: int) -> tuple[float, float]:
+        """(a1, a2) of g(u) = a1 sin(pi u) + a2 sin(2 pi u), drawn and scaled to max |g| = 1 on [0, 1].
+
+        With c = cos(pi u), g' = 0 where 4 a2 c^2 + a1 c - 2 a2 = 0, and there
+        g = sqrt(1 - c^2) (a1 + 2 a2 c): the peak, exactly.
+        """
+        a1, a2 = (float(a) for a in _rng(seed, _FLEX_KEY).uniform(-1.0, 1.0, 2))
+        if a2 == 0.0:
+            return 1.0 if a1 >= 0 else -1.0, 0.0
+        root = math.sqrt(a1 * a1 + 32.0 * a2 * a2)
+        peak = max(abs(math.sqrt(1.0 - c * c) * (a1 + 2.0 * a2 * c))
+                   for c in ((-a1 + root) / (8.0 * a2), (-a1 - root) / (8.0 * a2)) if -1.0 <= c <= 1.0)
+        return a1 / peak, a2 / peak
+
+    def reading(self, deg: Array, k0: int, earlier: Callable[[int, int], Array]) -> Array:
+        """The sensor's angle for the true angles ``deg`` of samples k0, k0 + 1, ...
+
+        ``earlier(ka, kb)`` gives the true angles of samples ka to kb - 1, for a
+        block that does not start where a kept state is.
+        """
+        if not self._stateful:
+            return self._bowed(deg) if self.model.nonlinearity else deg
+        state = self._state_before(k0, earlier)
+        out, states = self._run(deg, k0, state)
+        self._trail = (k0, states)
+        return out
+
+    def _bowed(self, deg: Array) -> Array:
+        """y = x + nonlinearity span g(u), u = clip(x / span, 0, 1)."""
+        a1, a2 = self._bow
+        u = np.clip(deg / self.span, 0.0, 1.0)
+        bow = a1 * np.sin(np.pi * u) + a2 * np.sin(2 * np.pi * u)
+        return deg + self.model.nonlinearity * self.span * bow
+
+    def _state_before(self, k0: int, earlier: Callable[[int, int], Array]) -> State:
+        for k in [k for k in self._marks if k > k0]:
+            del self._marks[k]
+        start, states = self._trail
+        if start <= k0 < start + len(states):
+            h, c, target = states[k0 - start].tolist()
+            return h, c, target
+        start = max(self._marks)
+        h, c, target = self._run(earlier(start, k0), start, self._marks[start])[1][-1].tolist()
+        return h, c, target
+
+    def _run(self, deg: Array, k0: int, state: State) -> tuple[Array, Array]:
+        """The readings of samples k0, k0 + 1, ... from ``state`` (before k0), and the states before
+        each of them and after the last, (N + 1, 3); keeps those before multiples of 4096."""
+        r, a, creep = self._half_width, self._decay, self.model.creep
+        h, c, target = state
+        bowed = self._bowed(deg) if self.model.nonlinearity else deg
+        targets = creep * np.clip(deg, 0.0, self.span)
+        plays, creeps, goals, out = [h], [c], [target], []
+        for y, goal in zip(bowed.tolist(), targets.tolist()):
+            c = a * c + (1.0 - a) * target
+            h = min(max(h, y - r), y + r)
+            target = goal
+            plays.append(h)
+            creeps.append(c)
+            goals.append(target)
+            out.append(h - c)
+        for k in range(-(-k0 // _CHUNK) * _CHUNK, k0 + len(deg) + 1, _CHUNK):
+            i = k - k0
+            self._marks[k] = (plays[i], creeps[i], goals[i])
+        return np.array(out, dtype=float), np.array([plays, creeps, goals]).T
 
 
 @dataclass(frozen=True)
@@ -277,15 +634,30 @@ class Simulator:
     earth_field_ut: Vec3 = EARTH_FIELD_UT
     seed: int = 0
 
-    def _forward(self, t: Array) -> tuple[Array, Array, Array, Array]:
-        """Link orientations, joint angles, sensor orientations and positions at ``t`` (M,)."""
-        links, sensors = self.chain.links, self.chain.sensors
+    def _pose(self, t: Array) -> tuple[Array, Array]:
+        """The root's orientations and the hinge angles (M, L - 1) at ``t`` (M,), checked."""
         root, joints = self.motion.at(t)
-        hinges = len(links) - 1
+        hinges = len(self.chain.links) - 1
         angles = np.asarray(joints, dtype=float).reshape(len(t), -1 if len(t) else hinges)
         if angles.shape[1] != hinges:
             raise ValueError(f"the motion gives {angles.shape[1]} joint angles; "
                              f"the chain has {hinges} hinges")
+        return root, angles
+
+    def _flexed(self, angles: Array) -> Array:
+        """The flexed joint in degrees from the hinge angles (0 without one)."""
+        fl = self.chain.flex_link
+        return np.degrees(angles[:, fl - 1]) if fl is not None else np.zeros(len(angles))
+
+    def flex_deg(self, t: ArrayLike) -> Array:
+        """The flexed joint in degrees at times ``t``: :class:`Truth`'s ``flex_deg``, alone."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        return self._flexed(self._pose(t)[1])
+
+    def _forward(self, t: Array) -> tuple[Array, Array, Array, Array]:
+        """Link orientations, joint angles, sensor orientations and positions at ``t`` (M,)."""
+        links, sensors = self.chain.links, self.chain.sensors
+        root, angles = self._pose(t)
         turns = quat.from_axis_angle(self.chain.hinges, angles)
         q_links = np.empty((len(t), len(links), 4))
         q_links[:, 0] = quat.normalize(root)
@@ -312,10 +684,9 @@ class Simulator:
         world = _stencil_sum(_D2, p_s.reshape(5, m, 3)) + np.array([0.0, 0.0, GRAVITY])
         acc, mag = quat.rotate(inv, np.array([world, np.broadcast_to(self.earth_field_ut, world.shape)]))
         centre, shape = slice(2 * n, 3 * n), (n, len(self.chain.sensors))
-        fl = self.chain.flex_link
-        flex = np.degrees(angles[centre, fl - 1]) if fl is not None else np.zeros(n)
         return Truth(t, q_links[centre], angles[centre], q.reshape(*shape, 4), gyr.reshape(*shape, 3),
-                     acc.reshape(*shape, 3), mag.reshape(*shape, 3), flex)
+                     acc.reshape(*shape, 3), mag.reshape(*shape, 3), self._flexed(angles[centre]),
+                     p_s[centre])
 
     def stream(self, rate_hz: float) -> SampleStream:
         """The samples at t = k / ``rate_hz``, measured a block at a time on request."""
@@ -331,9 +702,10 @@ class SampleStream:
 
     Its errors are functions of the sample index (:class:`_ErrorProcess`) and
     every sample is computed alike, so ``block(k0, k1)`` is rows k0 to k1 - 1
-    of ``sim.simulate(..., rate_hz)``, whatever the blocks asked for before.
-    Nothing is computed ahead: the motion may be extended between calls for
-    times after those of the blocks already taken.
+    of ``sim.simulate(..., rate_hz)``, whatever the blocks asked for before
+    (the flex sensor's hysteresis and creep carry state from block to block:
+    :class:`_FlexProcess`). Nothing is computed ahead: the motion may be
+    extended between calls for times after those of the blocks already taken.
     """
 
     def __init__(self, sim: Simulator, rate_hz: float) -> None:
@@ -342,6 +714,12 @@ class SampleStream:
         shapes = {"gyr": (n, 3), "acc": (n, 3), "mag": (n, 3), "flex": ()}
         self._processes = {kind: _ErrorProcess(getattr(sim.errors, kind), shapes[kind], rate_hz,
                                                sim.seed, i) for i, kind in enumerate(_KINDS)}
+        self._magnetic = _MagneticProcess(sim.errors.magnetic, n, sim.seed)
+        self._flex = _FlexProcess(sim.errors.flex_dynamics, sim.flex_sensor.bent_deg, rate_hz, sim.seed)
+
+    def _true_flex(self, k0: int, k1: int) -> Array:
+        """The true elbow angles of samples k0 to k1 - 1, in degrees."""
+        return self.sim.flex_deg(np.arange(k0, k1) / self.rate_hz)
 
     def block(self, k0: int, k1: int) -> SimData:
         """Samples number ``k0`` to ``k1 - 1``, measured and true."""
@@ -350,11 +728,14 @@ class SampleStream:
         k = np.arange(k0, k1)
         truth = self.sim.truth(k / self.rate_hz)
         p, circuit = self._processes, self.sim.flex_circuit
-        volts = circuit.volts(self.sim.flex_sensor.ohms(truth.flex_deg))
+        flex = self._flex.reading(truth.flex_deg, k0, self._true_flex)
+        volts = circuit.volts(self.sim.flex_sensor.ohms(flex))
+        mag = self._magnetic
         return SimData(truth.t, p["gyr"].measure(truth.gyr, k), p["acc"].measure(truth.acc, k),
-                       p["mag"].measure(truth.mag, k), circuit.adc(p["flex"].measure(volts, k)),
+                       p["mag"].measure(mag.field(truth), k), circuit.adc(p["flex"].measure(volts, k)),
                        truth, {kind: q.offset for kind, q in p.items()},
-                       {kind: q.scale for kind, q in p.items()})
+                       {kind: q.scale for kind, q in p.items()}, {kind: q.warmup for kind, q in p.items()},
+                       mag.hard_iron, mag.soft_iron, flex)
 
 
 @dataclass
@@ -441,8 +822,9 @@ def arm_swing(raise_rad: float = 0.6, raise_period_s: float = 4.0, yaw_rad: floa
 
 
 def arm_source(rate_hz: float = 200.0, seed: int = 0) -> SimulatedSource:
-    """The virtual board's default wearer: :func:`arm_swing` on :func:`arm_chain` with MPU-9250 errors."""
-    return SimulatedSource(Simulator(arm_chain(), arm_swing(), mpu9250(), seed=seed), rate_hz)
+    """The virtual board's default wearer: :func:`arm_swing` on :func:`arm_chain`, worn with a
+    typical real board's errors (:func:`realistic_errors`)."""
+    return SimulatedSource(Simulator(arm_chain(), arm_swing(), realistic_errors(), seed=seed), rate_hz)
 
 
 def finger_chain(lengths_m: Vec3 = (0.045, 0.025, 0.020), sensor_at: float = 0.5) -> Chain:
