@@ -34,17 +34,43 @@ straight forearm below flex-off (the "crossing" below); the charge is that
 spin time over ``charge_s``, capped at 1, and a spin shorter than
 ``min_spin_s`` launches nothing.
 
-The wave. A launch is a wave across the whole hysteresis band: from the
-last sample flexed above flex-on (the "release") to the first of the
-samples below flex-off that confirm the launch (the "crossing"), in at most
-``max_straighten_s`` (30 deg in 0.4 s by default: faster than 75 deg/s). A
-slower straightening is a relaxation, not a throw: the ball stops spinning
-and stays (``LOADING``, a "load" event). So a player who relaxes into the
-band (say to 40 deg) and waves from there keeps the ball; flexing above
-flex-on again and waving throws it. While the arm is on its way down (below
+The wave. A launch is a wave across the hysteresis band: from the last
+sample of the spin still held flexed (the "release": above flex-on less
+``hold_sag_deg``, see below) to the first of the samples below flex-off that
+confirm the launch (the "crossing"), in at most ``max_straighten_s`` (23 deg
+in 0.3 s by default: faster than 75 deg/s). A slower straightening is a
+relaxation, not a throw: the ball stops spinning and stays (``LOADING``, a
+"load" event). So a player who relaxes into the band (say to 40 deg) and
+waves from there keeps the ball; flexing above flex-on again and waving
+throws it.
+
+The sensor's own drift. A resistive flex sensor's reading creeps toward
+straight while the elbow is held bent (issue 12: up to 12 % of the bend,
+time constant ~4 s; Saggio et al., "Resistive flex sensors: a survey",
+Smart Mater. Struct. 25 (2016) 013001, sec. 5, on creep and hysteresis), so
+a spin held just past flex-on may read a few degrees below it after a few
+seconds although the player never relaxed. ``hold_sag_deg`` is that
+allowance: a spin still counts as held down to flex-on less 7 deg (12 % of
+55 deg is 6.6), and the relaxation rule times the wave from there. The
+sensor's hysteresis (a play of up to 12 % of its 127 deg span, +-7.6 deg)
+only shifts the reading toward where the elbow came from: a straightened
+elbow reads at most that much bent (below flex-off for any straightening to
+17 deg or less), a flexed one that much straighter. While the arm is on its way down (below
 the lower threshold, dwell not yet over) the forearm's transitions are held,
 so relaxing the elbow while lowering the arm ends in ``IDLE``, never in a
 launch.
+
+The quick confirmation. The dwell after the crossing costs its whole
+length in launch latency. A wave is also recognised by how it got there:
+when every step of the flex over the last ``wave_window_s`` (20 ms, four
+steps at 200 Hz) straightened the elbow at ``wave_speed_dps`` or faster,
+the first sample below flex-off confirms the straightening at once. The
+window is a dwell that runs *before* the crossing: noise makes some step of
+it flat or rising, and a spike shorter than the window (a glitch of one to
+three samples, or the filtered flex's dip and return after one) has a step
+that is not a fast extension, so neither confirms; what the quick path
+cannot confirm the dwell still can. Everything else about the launch (the
+spin time, the relaxation rule, the aim) is judged as after a dwell.
 
 Aim. The unflex itself swings the arm, so the launch direction is the
 pointing at the *start of the straightening*: the last local maximum of the
@@ -69,7 +95,7 @@ import math
 from collections import deque
 from dataclasses import dataclass, field, fields
 from enum import Enum
-from typing import Iterable, Literal, NamedTuple, get_args
+from typing import Iterable, Literal, NamedTuple, Sequence, get_args
 
 import numpy as np
 from mypy_extensions import mypyc_attr
@@ -92,9 +118,9 @@ class GestureState(str, Enum):
     FIRED = "fired"        # ball launched, arm still up, no ball
 
 
-_ANGLES = ("raise_deg", "lower_deg", "flex_on_deg", "flex_off_deg", "aim_tolerance_deg")
+_ANGLES = ("raise_deg", "lower_deg", "flex_on_deg", "flex_off_deg", "hold_sag_deg", "aim_tolerance_deg")
 _TIMES = ("raise_dwell_s", "lower_dwell_s", "flex_dwell_s", "min_spin_s", "aim_lookback_s")
-_POSITIVE_TIMES = ("charge_s", "rise_s", "history_s")
+_POSITIVE_TIMES = ("charge_s", "rise_s", "history_s", "wave_window_s")
 
 
 @mypyc_attr(native_class=False)  # a plain class even when compiled (README, "The compiled build")
@@ -114,13 +140,23 @@ class GestureSettings:
       (both ways: flexing and straightening; six samples at 200 Hz, short
       because every millisecond here is launch latency, and the 30 deg
       hysteresis band already keeps flex jitter out).
+    Quick confirmation of a wave (module doc, "The quick confirmation"):
+      ``wave_speed_dps`` 150: every step of the flex in the last
+      ``wave_window_s`` 0.02 straightening at least this fast confirms the
+      crossing below flex-off with no dwell. A quick 90 deg wave (0.1-0.3 s)
+      passes flex-off at 300-1500 deg/s; twice the 75 deg/s below which a
+      straightening is a relaxation (``max_straighten_s``). ``math.inf``
+      turns the quick path off (the dwell alone confirms).
     Spin:
       ``min_spin_s`` 0.15: a shorter spin is no throw (the ball stays, LOADING).
       ``charge_s`` 1.2: the spin time that gives a full charge (charge = spin / charge_s, capped at 1).
-      ``max_straighten_s`` 0.4: the wave from above flex-on to below flex-off
+      ``hold_sag_deg`` 7: how far below flex-on a spin still counts as held
+      (the release, module doc "The sensor's own drift"); at least 0, less
+      than the band ``flex_on_deg - flex_off_deg``.
+      ``max_straighten_s`` 0.3: the wave from the release to below flex-off
       must take at most this to launch; slower is a relaxation and keeps the
-      ball (a quick 90 deg wave takes 0.1-0.3 s, so its 30 deg band 0.03-0.1 s;
-      letting a 90 deg flex sag over 1.2 s or more is no throw).
+      ball (a quick 90 deg wave takes 0.1-0.3 s, so its 23 deg from 48 to 25
+      deg 0.02-0.08 s; letting a 90 deg flex sag over 1.2 s or more is no throw).
       ``math.inf`` turns the check off (every straightening then launches).
     Aim:
       ``aim_lookback_s`` 0.25: how far before the release the start of the
@@ -142,9 +178,12 @@ class GestureSettings:
     raise_dwell_s: float = 0.12
     lower_dwell_s: float = 0.30
     flex_dwell_s: float = 0.03
+    wave_speed_dps: float = 150.0
+    wave_window_s: float = 0.02
     min_spin_s: float = 0.15
     charge_s: float = 1.2
-    max_straighten_s: float = 0.4
+    hold_sag_deg: float = 7.0
+    max_straighten_s: float = 0.3
     aim_lookback_s: float = 0.25
     aim_tolerance_deg: float = 8.0
     history_s: float = 1.0
@@ -176,6 +215,14 @@ class GestureSettings:
         if self.flex_off_deg >= self.flex_on_deg:
             raise ValueError(f"flex_off_deg ({self.flex_off_deg}) must be below flex_on_deg "
                              f"({self.flex_on_deg}): the gap between them is the hysteresis that stops chatter")
+        if self.hold_sag_deg >= self.flex_on_deg - self.flex_off_deg:
+            raise ValueError(f"hold_sag_deg ({self.hold_sag_deg}) must be less than the band between flex_off_deg "
+                             f"and flex_on_deg ({self.flex_on_deg - self.flex_off_deg:g})")
+        if not self.wave_speed_dps > 0.0:
+            raise ValueError(f"wave_speed_dps must be a speed of more than 0 deg/s (math.inf turns the quick "
+                             f"confirmation off), not {self.wave_speed_dps!r}")
+        if self.history_s < self.wave_window_s:
+            raise ValueError(f"history_s ({self.history_s}) must be at least wave_window_s ({self.wave_window_s})")
         needed = self.aim_lookback_s + self.max_straighten_s + self.flex_dwell_s
         if math.isfinite(needed) and self.history_s < needed - 1e-12:
             raise ValueError(f"history_s ({self.history_s}) must be at least aim_lookback_s + max_straighten_s"
@@ -239,7 +286,7 @@ class GestureMemory:
     pointing: Vec3 = DOWN  # the last usable sample's pointing
     rise_start: float = -math.inf  # when the ball began to float up
     spin_start: float = 0.0  # the onset of the flex that started the spin
-    release: Sample | None = None  # the last sample of this spin flexed above flex-on
+    release: Sample | None = None  # the last sample of this spin held flexed (above flex-on less the sag)
     raised: Dwell = field(default_factory=Dwell)
     lowered: Dwell = field(default_factory=Dwell)
     flexed: Dwell = field(default_factory=Dwell)
@@ -282,6 +329,27 @@ def straightening_start(history: Iterable[Sample], release: Sample, lookback_s: 
     window = [s for s in history if release.t - lookback_s <= s.t <= release.t] or [release]
     peak = max(s.flex for s in window)
     return next(s for s in reversed(window) if s.flex >= peak - tolerance_deg)
+
+
+def extending_fast(history: Sequence[Sample], window_s: float, speed_dps: float) -> bool:
+    """Whether every step of the flex in the last ``window_s`` of ``history`` straightened at ``speed_dps`` or faster.
+
+    At least two steps are needed; a step with no time between its samples must not rise.
+    """
+    if not history:
+        return False
+    start = history[-1].t - window_s
+    newer = history[-1]
+    steps = 0
+    for older in reversed(history):
+        if older is newer:
+            continue
+        if older.t < start:
+            break
+        if not older.flex - newer.flex >= speed_dps * (newer.t - older.t):
+            return False
+        newer, steps = older, steps + 1
+    return steps >= 2
 
 
 class GestureMachine:
@@ -351,7 +419,7 @@ class GestureMachine:
             return []
         if m.lowered.step(sample.elevation < s.lower_deg, sample.t, s.lower_dwell_s):
             return [self._enter(GestureState.IDLE, "idle")]
-        if m.state is GestureState.SPINNING and sample.flex > s.flex_on_deg:
+        if m.state is GestureState.SPINNING and sample.flex > s.flex_on_deg - s.hold_sag_deg:
             m.release = sample
         if m.lowered.since is not None:  # the arm is on its way down: hold the forearm
             m.flexed.since = m.straight.since = None
@@ -385,7 +453,9 @@ class GestureMachine:
 
     def _spinning(self, sample: Sample) -> list[GestureEvent]:
         m, s = self._memory, self._settings
-        if not m.straight.step(sample.flex < s.flex_off_deg, sample.t, s.flex_dwell_s):
+        straight = sample.flex < s.flex_off_deg
+        if not (m.straight.step(straight, sample.t, s.flex_dwell_s)
+                or straight and extending_fast(m.history, s.wave_window_s, s.wave_speed_dps)):
             return []
         crossed, release = m.straight.since, m.release
         assert crossed is not None and release is not None  # set on entering SPINNING

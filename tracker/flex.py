@@ -305,7 +305,7 @@ class FlexParams:
     """How :class:`FlexTracker` smooths, adapts and judges the signal."""
 
     min_cutoff_hz: float = 1.5  # 1-euro cutoff when still: 1 count (0.35 deg) of noise -> 0.06 deg
-    beta: float = 0.05  # 1-euro cutoff rise per deg/s: 200 deg/s -> 11.5 Hz, 14 ms lag
+    beta: float = 0.05  # 1-euro cutoff rise per deg/s: a 200 deg/s ramp -> 6.5 ms lag (class doc)
     d_cutoff_hz: float = 1.0  # 1-euro cutoff of the speed estimate (Casiez et al.'s default)
     range_tau_s: float = 1.0  # time constant with which the range follows readings beyond it
     rail_counts: int = 1  # this close to 0 or full scale is a rail (a full bend reads ~10)
@@ -347,8 +347,19 @@ class FlexTracker:
     CHI 2012): a one-pole low-pass whose cutoff rises with the smoothed speed,
     fc = min_cutoff + beta |d deg/dt|, so a still arm is steady and a snapping
     elbow (the launch gesture, seed 000 sec. 5) lags by only 1 / (2 pi fc).
-    The speed is differenced from the raw angles (the paper differences against
-    the previous smoothed value), so on a steady ramp the lag is exactly that.
+    As in the paper's own algorithm (its Fig. 1 listing: dx = (x -
+    x_hat_prev) * rate), the speed is the new raw angle less the previous
+    *smoothed* one: it includes what the output still lags behind, so the
+    cutoff rises with the lag and the output catches up sooner. On a steady
+    ramp of v deg/s sampled every dt the lag tau is again 1 / (2 pi fc),
+    with the speed seen as v (1 + tau / dt), which makes
+    (2 pi beta v / dt) tau^2 + 2 pi (min_cutoff + beta v) tau = 1: at
+    200 deg/s and 200 Hz 6.5 ms, where a speed differenced between raw
+    angles gives 13.8 ms. During a brief wave the gain is larger still: the
+    speed's own low-pass (``d_cutoff_hz``) has no time to settle, and the
+    lag term does not wait for it. After a spike the raw angle is
+    far from the smoothed one and the output returns at once, instead of
+    lingering at the spike's depth while the cutoff falls back.
 
     Range following: a count beyond the calibrated straight or bent end pulls
     that end towards it with time constant ``range_tau_s``, so a brief spike
@@ -381,7 +392,7 @@ class FlexTracker:
         if s.deg is None:
             s.deg = raw
         else:
-            speed = (raw - s.raw_deg) / dt if dt > 0 else s.speed_dps
+            speed = (raw - s.deg) / dt if dt > 0 else s.speed_dps
             s.speed_dps += _alpha(p.d_cutoff_hz, dt) * (speed - s.speed_dps)
             s.deg += _alpha(p.min_cutoff_hz + p.beta * abs(s.speed_dps), dt) * (raw - s.deg)
         s.raw_deg, s.t = raw, t

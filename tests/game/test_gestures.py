@@ -332,7 +332,9 @@ def test_charge_grows_with_spin_time_and_caps_at_one(hold):
     assert all(0.0 <= c <= 1.0 for c in charges)
     live = [c for c in charges if c > 0]
     assert live == sorted(live)  # grows while spinning
-    assert max(charges) == pytest.approx(events[-1].charge, abs=1e-12)  # frozen during the wave's dwell
+    # the ball shows the charge it is thrown with: frozen during a dwell, or one sample short of it when
+    # the quick wave is confirmed at its crossing (this 1800 deg/s wave is), never more
+    assert events[-1].charge - 1.0 / RATE / 1.2 - 1e-12 <= max(charges) <= events[-1].charge + 1e-12
     assert charges[-1] == 0.0  # fired: no ball, no charge
 
 

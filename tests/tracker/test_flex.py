@@ -182,8 +182,16 @@ def test_smoothing_lag_on_a_ramp_is_one_over_two_pi_fc():
     out = [tracker.update(1000 - 3 * k, k / RATE) for k in range(n)]
     assert all(r.status is FlexStatus.OK for r in out)
     lag_s = (out[-1].raw_deg - out[-1].deg) / speed
-    assert lag_s == pytest.approx(1 / (2 * math.pi * (p.min_cutoff_hz + p.beta * speed)), rel=0.01)
-    assert lag_s < 0.015
+    # Casiez et al.'s speed, raw less the previous smoothed value, is v (1 + tau / dt) on a settled ramp;
+    # with fc = min_cutoff + beta * that speed, tau = 1 / (2 pi fc) is the positive root of
+    # (2 pi beta v / dt) tau^2 + 2 pi (min_cutoff + beta v) tau - 1 = 0
+    a = 2 * math.pi * p.beta * speed * RATE
+    b = 2 * math.pi * (p.min_cutoff_hz + p.beta * speed)
+    tau = (-b + math.sqrt(b * b + 4 * a)) / (2 * a)
+    assert lag_s == pytest.approx(tau, rel=0.01)
+    fc = p.min_cutoff_hz + p.beta * speed * (1 + tau * RATE)
+    assert lag_s == pytest.approx(1 / (2 * math.pi * fc), rel=0.01)
+    assert lag_s < 0.007  # half the 13.8 ms of a speed differenced between raw angles
 
 
 def test_smoothing_steadies_a_still_arm_and_follows_a_step_quickly():
