@@ -91,10 +91,12 @@ class Game:
         self.close_board()
         if virtual:
             from tracker.board import VirtualBoard
-            self.virtual_board = VirtualBoard().start()
+
+            from .virtual_player import VirtualPlayer
+            self.virtual_board = VirtualBoard(VirtualPlayer()).start()
             port = self.virtual_board.port
         self.use_source(TrackerInput(LinkSettings(port)))
-        # The virtual board's simulated arm wears it ideally and never holds still: it
+        # The virtual player wears the board as designed and does not follow prompts: it
         # needs (and allows) no wearing calibration.
         self.calibrated = virtual
 
