@@ -7,20 +7,23 @@ it was aimed, when the player was idle, and when the wearing calibration's two
 poses were held. The eval harness and the headless match feed the motion to
 the sensor simulator and score the tracker and the gesture machine against it.
 
-Bone and board. Two motions come out of a script. The *bone's*
-(:attr:`Script.bone_motion`, :attr:`Session.bone`) is where the humerus is:
-the player's moves, tremor and sway. The *board's link*
-(:attr:`Script.motion`, :attr:`Session.motion`) is the bone turned by what the
-strap and the soft tissue under it do (:class:`Script`: rocking, the twist
-the board does not follow, slip): q_WL,board = q_WL,bone exp(r), r = (rx, ry,
-rz) in the link frame. The simulator moves the board's link, so the board
-errs as a real one does; the truth stays the bone: the launches' directions
-(where the bone pointed when the elbow crossed the threshold) and
-:meth:`Session.pointing` / :meth:`Session.elevation_deg` come from it. The
-simulator turns the root about the shoulder, so rocking across the arm
-(rx, ry) also moves the board sideways by upper_arm_m times the angle, more
-than a board rocking about a point a few centimetres under it would; roll
-about the arm (rz: twist, slip, rocking at rest) moves it not at all.
+Bone and board. The motion's root (:meth:`Script.root`) is the bone, where
+the humerus is: the player's moves, tremor and sway; the forearm and the
+elbow's hinge hang on it. The board sits on the bone's soft tissue under a
+strap, which turns it (:class:`Script`: rocking, the twist the board does
+not follow, slip) by q_m = exp(r), r = (rx, ry, rz) in the link frame
+(:meth:`Script.strap`): the motion's time-varying mount
+(:class:`tracker.sim.Motion`), q_WS = q_WL,bone q_m(t) q_LS. The board turns
+about the point of the humerus' axis under it, STRAP_PIVOT_M from the
+sensor (BOARD_RADIUS_M toward the bone, the board on the arm's outer side,
+link +y for the right arm), so a rocking of A at f Hz adds 2 pi f A to the
+board's rate and at most (2 pi f)^2 A BOARD_RADIUS_M to its acceleration,
+as a board rocking on the soft tissue does (not the upper arm's length
+times the angle, as turning the whole arm about the shoulder would). The
+simulator moves the board, so it errs as a real one does; the truth stays
+the bone: the launches' directions (where the bone pointed when the elbow
+crossed the threshold) and :meth:`Session.pointing` /
+:meth:`Session.elevation_deg` come from it.
 
 Frames. The body frame B is x right, y forward, z up (:mod:`game.avatar`); the
 simulated world is the body frame at heading 0 (z up, no walking turns). The
@@ -99,6 +102,7 @@ MINIMUM_JERK_PEAK_ACC = 10.0 / math.sqrt(3.0)  # max s''(tau), at tau = (3 - sqr
 SHARPEST_DEG_S2 = MINIMUM_JERK_PEAK_ACC * LAUNCH_BENT_DEG[1] / LAUNCH_S[0] ** 2  # the snappiest launch
 DAMPING_RATIO = 0.3  # soft tissue under a strap (class docstring of Script: 0.2-0.4)
 BOARD_RADIUS_M = 0.05  # the board's distance from the humerus' axis (upper-arm radius)
+STRAP_PIVOT_M = (0.0, -BOARD_RADIUS_M, 0.0)  # what the strap turns the board about, from it (link frame)
 RING_DECAYS = 20.0  # a kick's rocking is over after exp(-20) of it is left
 TREMOR_SPREAD_HZ = 1.0  # tremor components lie within this of the profile's tremor_hz
 TREMOR_COMPONENTS = 4  # sines per channel: beating, the tremor waxes and wanes as a real one
@@ -333,9 +337,12 @@ class _Segments:
                          np.concatenate([v[:1], v[:-1], v[-1:]]),
                          np.concatenate([[0.0], np.diff(v), [0.0]])])
 
-    def __call__(self, t: Array) -> Array:
-        """Every channel at times ``t`` (M,), as (C, M)."""
-        i = np.array([np.searchsorted(k, t, side="right") for k in self.knots]) + self.first
+    def __call__(self, t: Array, channel: int | None = None) -> Array:
+        """Every channel at times ``t`` (M,), as (C, M); or only ``channel``'s, as (M,)."""
+        if channel is None:
+            i = np.array([np.searchsorted(k, t, side="right") for k in self.knots]) + self.first
+        else:
+            i = np.searchsorted(self.knots[channel], t, side="right") + self.first[channel, 0]
         start, duration, value, change = (row.take(i) for row in self.table)
         return value + change * minimum_jerk((t - start) / duration)
 
@@ -371,11 +378,11 @@ class _Keyframes:
                 del knots[:i], values[:i]
                 self._segments = None
 
-    def __call__(self, t: Array) -> Array:
-        """Every channel at times ``t`` (M,), as (C, M)."""
+    def __call__(self, t: Array, channel: int | None = None) -> Array:
+        """Every channel at times ``t`` (M,), as (C, M); or only ``channel``'s (its index), as (M,)."""
         if self._segments is None:
             self._segments = _Segments.of(list(self._t.values()), list(self._v.values()))
-        return self._segments(t)
+        return self._segments(t, channel)
 
 
 def _sine(amplitude: Array | float, freq_hz: Array | float, phase: Array | float, t: Array) -> Array:
@@ -391,6 +398,11 @@ class _Oscillations:
     amplitude: Array
     freq_hz: Array
     phase: Array
+
+    def on_row(self, row: int) -> _Oscillations:
+        """Only the oscillations on ``row``, put on row 0."""
+        on = np.array(self.rows, dtype=int) == row
+        return _Oscillations((0,) * int(np.sum(on)), self.amplitude[on], self.freq_hz[on], self.phase[on])
 
     def add_to(self, channels: Array, t: Array) -> None:
         """Add every oscillation at times ``t`` (M,) to its row of ``channels`` (C, M)."""
@@ -523,12 +535,10 @@ class Session:
     idle_intervals: list[Interval]
     calibration: tuple[Interval, Interval] | None  # (arm down, arm forward) still intervals
     segments: list[Segment] = field(default_factory=list)
-    bone: Motion | None = None  # the bone's motion, the truth; None: the board is glued to it
 
     def pointing(self, t: ArrayLike) -> Array:
         """The upper arm's (the bone's) unit direction, shoulder to elbow, in the body frame, (N, 3)."""
-        bone = self.bone if self.bone is not None else self.motion
-        return Q.rotate(bone.root(np.atleast_1d(np.asarray(t, dtype=float))), (0.0, 0.0, -1.0))
+        return Q.rotate(self.motion.root(np.atleast_1d(np.asarray(t, dtype=float))), (0.0, 0.0, -1.0))
 
     def elevation_deg(self, t: ArrayLike) -> Array:
         """The upper arm's angle from hanging straight down, degrees."""
@@ -606,6 +616,7 @@ class Script:
         self.now = 0.0
         self._keyframes = _Keyframes({c: self.rest_flex if c == "flex" else 0.0 for c in _CHANNELS})
         self._tremor = self._draw_tremor(rng)
+        self._twist_tremor = self._tremor.on_row(_CHANNELS.index("tw"))
         self._sway = self._draw_sway(rng)
         self._rest_roll = self._tissue_roll(self._tremor)
         self._slip_sign = float(rng.choice([-1.0, 1.0]))
@@ -851,15 +862,22 @@ class Script:
         _add_spans(out, self._waves, t, lambda w: _CHANNELS.index(w.channel))
         return out
 
-    def _strap_degrees(self, c: Array, t: Array) -> Array:
+    def _twist_degrees(self, t: Array) -> Array:
+        """The bone's twist channel alone at times ``t`` (M,), in degrees: :meth:`_degrees`' row
+        of it, computed alike (no wave twists the arm)."""
+        out = self._keyframes(t, _CHANNELS.index("tw"))[None]
+        self._twist_tremor.add_to(out, t)
+        return out[0]
+
+    def _strap_degrees(self, twist: Array, t: Array) -> Array:
         """The board turned relative to the bone (link x, y, z; degrees), (3, M), given the
-        bone's channels ``c`` (degrees) at ``t``: rocking after kicks and at rest, the twist
-        the board does not follow, and the slip (class docstring)."""
+        bone's twist (degrees) at ``t``: rocking after kicks and at rest, the twist the board
+        does not follow, and the slip (class docstring)."""
         out = np.zeros((len(_STRAP), len(t)))
         self._rest_roll.add_to(out, t)
         _add_spans(out, self._rings, t, lambda r: r.row)
         slip = self._slip_sign * self.profile.slip_deg_per_min * t / 60.0
-        out[2] += slip - (1.0 - self.profile.twist_follow) * c[_CHANNELS.index("tw")]
+        out[2] += slip - (1.0 - self.profile.twist_follow) * twist
         return out
 
     def channels(self, t: ArrayLike) -> dict[str, Array]:
@@ -867,7 +885,8 @@ class Script:
         the strap's ``rx``, ``ry``, ``rz`` (the board relative to the bone, link axes)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         c = self._degrees(t)
-        return dict(zip(_CHANNELS + _STRAP, np.concatenate([c, self._strap_degrees(c, t)])))
+        strap = self._strap_degrees(c[_CHANNELS.index("tw")], t)
+        return dict(zip(_CHANNELS + _STRAP, np.concatenate([c, strap])))
 
     @staticmethod
     def _bone(c: Array) -> Array:
@@ -876,24 +895,19 @@ class Script:
         sway = Q.from_rotvec(np.stack([sx, sy, np.zeros_like(sx)], axis=-1))
         return Q.multiply(Q.multiply(_aim(-az, el, tw), sway), Q.conjugate(IDEAL_MOUNT))
 
-    def _board(self, t: Array) -> tuple[Array, Array]:
-        """The board's link q_WL = q_WL,bone exp(strap) and the channels (radians) at ``t``."""
-        c = self._degrees(t)
-        strap = np.radians(self._strap_degrees(c, t))
-        rad = np.radians(c)
-        return Q.multiply(self._bone(rad), Q.from_rotvec(strap.T)), rad
-
     def root(self, t: ArrayLike) -> Array:
-        """q_WL(t) of the board's link (the bone and the strap): what the simulator moves."""
-        return self._board(np.atleast_1d(np.asarray(t, dtype=float)))[0]
-
-    def bone_root(self, t: ArrayLike) -> Array:
         """q_WL(t) of the bone, the ideally worn board: where the arm really is."""
         return self._bone(np.radians(self._degrees(np.atleast_1d(np.asarray(t, dtype=float)))))
 
+    def strap(self, t: ArrayLike) -> Array:
+        """q_m(t) = exp(r): the board turned on the bone by the strap and the soft tissue, (N, 4)
+        (module docstring): the motion's mount, about STRAP_PIVOT_M."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        return Q.from_rotvec(np.radians(self._strap_degrees(self._twist_degrees(t), t)).T)
+
     def _bone_pointing(self, t: float) -> Array:
         """The bone's body-frame unit direction at ``t``, sway and tremor included."""
-        return Q.rotate(self.bone_root([t]), (0.0, 0.0, -1.0))[0]
+        return Q.rotate(self.root([t]), (0.0, 0.0, -1.0))[0]
 
     @staticmethod
     def _elbow(c: Array) -> Array:
@@ -906,8 +920,8 @@ class Script:
 
     def pose(self, t: ArrayLike) -> tuple[Array, Array]:
         """:meth:`root` and :meth:`joints` together, from one evaluation of the channels."""
-        root, c = self._board(np.atleast_1d(np.asarray(t, dtype=float)))
-        return root, self._elbow(c)
+        rad = np.radians(self._degrees(np.atleast_1d(np.asarray(t, dtype=float))))
+        return self._bone(rad), self._elbow(rad)
 
     def forget_before(self, t: float) -> None:
         """Let go of the motion before ``t`` (keyframes, ended oscillations): a script that is
@@ -918,20 +932,15 @@ class Script:
 
     @property
     def motion(self) -> Motion:
-        """The board's link as a live :class:`tracker.sim.Motion` (segments added later change it):
-        what the simulator moves."""
-        return Motion(self.root, self.joints, self.pose)
-
-    @property
-    def bone_motion(self) -> Motion:
-        """The bone as a live :class:`tracker.sim.Motion`: where the arm is."""
-        return Motion(self.bone_root, self.joints)
+        """The arm as a live :class:`tracker.sim.Motion` (segments added later change it): the
+        bone, and the board turned on it by :meth:`strap`. What the simulator moves."""
+        return Motion(self.root, self.joints, self.pose, self.strap, STRAP_PIVOT_M)
 
     def build(self) -> Session:
         """The session so far; later segments added to this script do not change it."""
         frozen = copy.deepcopy(self)
         return Session(frozen.motion, self.now, list(self.launches), list(self.idle_intervals),
-                       self.calibration_intervals, list(self.segments), frozen.bone_motion)
+                       self.calibration_intervals, list(self.segments))
 
 
 def session(profile: PlayerProfile = PlayerProfile(), seed: int = 0, gestures: int = 5,

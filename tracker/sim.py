@@ -13,7 +13,9 @@ link k in the world and ``o_k`` its joint's position,
 
 the 3-D form of seed 003's r_i = R_i {0, l_i, 0} and s_k = sum r_i + h_k.
 A sensor sits at ``position_m`` in its link's frame, turned by ``mount``
-(q_LS: a wearing offset, seed 000 sec. 6). What it feels:
+(q_LS: a wearing offset, seed 000 sec. 6), and the motion may turn it on
+its link as time goes (``Motion.mount``: a board rocking on soft tissue),
+q_WS = q_k q_m(t) q_LS. What it feels:
 
     gyr = 2 Im(q_WS^-1 dq_WS/dt)     body angular rate (q' = q w / 2, Sola 2017)
     acc = R_WS^T (p'' - g)            specific force, g = (0, 0, -9.81) (seed 003, sec. 2.1)
@@ -148,11 +150,23 @@ class Chain:
 
 @dataclass(frozen=True)
 class Motion:
-    """Trajectories, vectorised over times ``t`` of shape (N,)."""
+    """Trajectories, vectorised over times ``t`` of shape (N,).
+
+    ``mount``, if given, turns the sensors on their links as time goes (a
+    board rocking on the soft tissue under a strap): every sensor is turned
+    by q_m(t), in its link's frame, about the point ``mount_pivot_m`` from
+    the sensor (link frame). With c that vector, the sensor sits at
+    position_m + c - R(q_m) c and is turned q_link q_m(t) q_LS: its rate
+    gains q_m's, and its acceleration the lever arm's, only as large as c is
+    (zero for a rotation about the sensor itself). The links, and so the
+    joints and what hangs on them, do not follow it.
+    """
 
     root: Callable[[Array], Array]  # t -> q_W0 (N, 4), the root link's orientation
     joints: Callable[[Array], Array]  # t -> hinge angles (N, links - 1), radians
     pose: Callable[[Array], tuple[Array, Array]] | None = None  # t -> both, if cheaper at once
+    mount: Callable[[Array], Array] | None = None  # t -> q_m (N, 4), every sensor turned on its link
+    mount_pivot_m: Vec3 = (0.0, 0.0, 0.0)  # what q_m turns the sensor about, from it (link frame)
 
     def at(self, t: Array) -> tuple[Array, Array]:
         """The root's orientations and the hinge angles at ``t``."""
@@ -668,8 +682,20 @@ class Simulator:
         origins = np.zeros((len(t), len(links), 3))
         np.cumsum(arms[:, :len(links) - 1], axis=1, out=origins[:, 1:])
         idx = index[len(links) - 1:]
-        q_sensors = quat.multiply(q_links[:, idx], [s.mount for s in sensors])
-        return q_links, angles, q_sensors, origins[:, idx] + arms[:, len(links) - 1:]
+        q_on_links, p_sensors = q_links[:, idx], origins[:, idx] + arms[:, len(links) - 1:]
+        mount = self.motion.mount
+        if mount is not None:
+            q_on_links, p_sensors = self._mounted(mount(t), q_on_links, p_sensors)
+        return q_links, angles, quat.multiply(q_on_links, [s.mount for s in sensors]), p_sensors
+
+    def _mounted(self, q_m: Array, q_on_links: Array, p_sensors: Array) -> tuple[Array, Array]:
+        """The sensors' links' orientations (M, S, 4) turned by the motion's mount q_m (M, 4), and
+        the sensors' positions (M, S, 3) moved by its lever, R_link (c - R(q_m) c) (:class:`Motion`)."""
+        q_m = np.asarray(q_m, dtype=float).reshape(len(q_m), 1, 4)
+        pivot = np.asarray(self.motion.mount_pivot_m, dtype=float)
+        if np.any(pivot):
+            p_sensors = p_sensors + quat.rotate(q_on_links, pivot - quat.rotate(q_m, pivot))
+        return quat.multiply(q_on_links, q_m), p_sensors
 
     def truth(self, t: ArrayLike) -> Truth:
         """The true orientations, rates, specific forces and fields at times ``t`` (s)."""

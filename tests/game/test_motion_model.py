@@ -397,8 +397,10 @@ def test_a_fast_move_rocks_the_board_at_wobble_hz_scaled_by_its_sharpness():
 
 
 def relative_rotvec(script, t):
-    """The board's link relative to the bone, as a rotation vector in degrees (N, 3)."""
-    rel = Q.multiply(Q.conjugate(script.bone_root(t)), script.root(t))
+    """The board relative to the bone in the simulator (the upper-arm link), as a rotation
+    vector in degrees (N, 3)."""
+    truth = Simulator(arm_chain(), script.motion).truth(t)
+    rel = Q.multiply(Q.conjugate(truth.q_links[:, 0]), truth.q_sensors[:, 0])
     return np.degrees(Q.to_rotvec(rel))
 
 
@@ -442,6 +444,36 @@ def test_launch_truth_is_where_the_bone_pointed_not_the_board():
     for launch in s.launches:
         bone = s.pointing(launch.t_straight)[0]
         assert bone == pytest.approx(launch.direction_body, abs=1e-12)
-        board = Q.rotate(s.motion.root([launch.t_straight]), (0.0, 0.0, -1.0))[0]
-        board_off.append(angle_deg(board, bone))
+        q_board = Simulator(arm_chain(), s.motion).truth([launch.t_straight]).q_sensors[0, 0]
+        board_off.append(angle_deg(Q.rotate(q_board, (0.0, 0.0, -1.0)), bone))
     assert max(board_off) > 0.05  # the board rocks off the bone at the snap
+
+
+def test_the_strap_rocks_the_board_on_the_arm_not_the_arm():
+    """A snappy reach rocks the board (at 20 Hz, up to 4 deg) about the humerus' axis under it,
+    BOARD_RADIUS_M away: its rate gains the rocking's, its acceleration at most about
+    (2 pi f)^2 A BOARD_RADIUS_M (not the upper arm's 0.3 m times it); the arm itself, the
+    elbow's hinge and the forearm, follow the bone alone."""
+    profile = replace(STILL, wobble_deg=4.0, wobble_hz=20.0, speed=4.0)
+    script = Script(profile, seed=2)
+    script.reach(40.0, 90.0)  # kicks both the hinge (raise) and link x (the swing across)
+    t = np.arange(0.0, script.now + 1.0, 1 / 1000)
+    chain = arm_chain(upper_arm_m=profile.upper_arm_m, sensor_m=profile.upper_arm_m)
+    worn = Simulator(chain, script.motion).truth(t)
+    bare = Simulator(chain, replace(script.motion, mount=None)).truth(t)
+    assert np.array_equal(worn.q_links, bare.q_links)  # the bone and the forearm do not rock
+    c = script.channels(t)
+    strap = np.stack([c["rx"], c["ry"], c["rz"]], axis=-1)
+    assert np.abs(c["ry"]).max() > 0.5 and np.abs(c["rx"]).max() > 0.2  # rocked about both
+    rel = Q.multiply(Q.conjugate(worn.q_links[:, 0]), worn.q_sensors[:, 0])
+    assert np.degrees(Q.to_rotvec(rel)) == pytest.approx(strap, abs=1e-9)
+    # the rate it adds: 2 pi f A at most
+    extra_rate = np.degrees(np.linalg.norm(worn.gyr[:, 0] - Q.rotate(Q.conjugate(rel), bare.gyr[:, 0]), axis=1))
+    w, a = 2 * np.pi * 20.0, math.radians(np.abs(strap).max())
+    assert 0.3 * math.degrees(w * a) < extra_rate.max() < 1.5 * math.degrees(w * a)
+    # the acceleration it adds: of order w^2 A r, r = BOARD_RADIUS_M
+    def world(truth):
+        return Q.rotate(truth.q_sensors[:, 0], truth.acc[:, 0])
+    extra_acc = np.linalg.norm(world(worn) - world(bare), axis=1).max()
+    assert 0.1 * w**2 * a * BOARD_RADIUS_M < extra_acc < 2.0 * w**2 * a * BOARD_RADIUS_M
+    assert extra_acc < w**2 * a * profile.upper_arm_m / 3

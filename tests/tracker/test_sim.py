@@ -107,6 +107,62 @@ def test_a_swinging_pendulum_feels_tangential_and_centripetal_acceleration():
     assert Simulator(arm_chain(), motion).truth(t).acc[:, 0] == pytest.approx(expected, abs=1e-6)
 
 
+def rocking(amplitude, omega, pivot=(0.0, 0.0, 0.0)) -> Motion:
+    """The hanging arm held still, elbow at 0.4 rad, the board rocking on it about its link's x
+    by theta = amplitude sin(omega t) about ``pivot`` (from the sensor, link frame)."""
+    return Motion(still((1.0, 0.0, 0.0, 0.0), (0.4,)).root, still((1.0, 0.0, 0.0, 0.0), (0.4,)).joints,
+                  mount=lambda t: quat.from_axis_angle([1, 0, 0], amplitude * np.sin(omega * t)),
+                  mount_pivot_m=pivot)
+
+
+def test_a_board_rocking_on_its_link_about_a_point_under_it_by_hand():
+    # theta = A sin(W t) about x through c = (0, -r, 0) from the sensor: the sensor sits at
+    # (0, 0, -L) + c - R_x(theta) c = (0, 0, -L) + r (0, cos theta - 1, sin theta), so
+    # p'' = r (0, -cos theta th'^2 - sin theta th'', cos theta th'' - sin theta th'^2); it
+    # turns at (th', 0, 0) and feels R_x(theta)^T (p'' + (0, 0, g)). A rocking of 2 deg at
+    # 12 Hz turns it at up to 2 pi 12 A = 151 deg/s and accelerates it by about W^2 A r, not
+    # by W^2 A L as turning the whole 0.3 m arm would.
+    A, W, r, L = np.radians(2.0), 2 * np.pi * 12.0, 0.04, 0.30
+    t = np.linspace(0, 0.25, 401)
+    th, th1, th2 = A * np.sin(W * t), A * W * np.cos(W * t), -A * W * W * np.sin(W * t)
+    truth = Simulator(arm_chain(), rocking(A, W, (0.0, -r, 0.0))).truth(t)
+    # (the 5-point stencil's truncation, h^4 / 30 W^5 A, is 2e-7 rad/s at 12 Hz)
+    assert truth.gyr[:, 0] == pytest.approx(np.stack([th1, 0 * t, 0 * t], -1), abs=1e-6)
+    assert np.degrees(np.abs(truth.gyr[:, 0, 0]).max()) == pytest.approx(2 * np.pi * 12.0 * 2.0, rel=1e-3)
+    p = np.stack([0 * t, r * (np.cos(th) - 1), r * np.sin(th) - L], -1)
+    assert truth.p_sensors[:, 0] == pytest.approx(p, abs=1e-12)
+    p2 = r * np.stack([0 * t, -np.cos(th) * th1**2 - np.sin(th) * th2, np.cos(th) * th2 - np.sin(th) * th1**2], -1)
+    expected = Rotation.from_rotvec(th[:, None] * [1, 0, 0]).inv().apply(p2 + [0, 0, G])
+    assert truth.acc[:, 0] == pytest.approx(expected, abs=1e-6)
+    lever = np.linalg.norm(p2, axis=1).max()
+    assert lever == pytest.approx(W**2 * A * r, rel=0.01) and lever < W**2 * A * L / 5
+    # the link and what hangs on it (the forearm at the elbow's 0.4 rad) do not rock
+    assert np.array_equal(truth.q_links[:, 0], np.tile([1.0, 0, 0, 0], (len(t), 1)))
+    assert rot(truth.q_links[:, 1]).approx_equal(Rotation.from_rotvec([0, 0.4, 0]), atol=1e-15).all()
+
+
+def test_a_board_rocking_about_itself_only_turns():
+    A, W = np.radians(3.0), 2 * np.pi * 9.0
+    t = np.linspace(0, 0.3, 101)
+    truth = Simulator(arm_chain(), rocking(A, W)).truth(t)
+    assert np.array_equal(truth.p_sensors[:, 0], np.tile([0.0, 0.0, -0.30], (len(t), 1)))
+    th = A * np.sin(W * t)
+    assert truth.acc[:, 0] == pytest.approx(Rotation.from_rotvec(th[:, None] * [1, 0, 0]).inv().apply([0, 0, G]),
+                                            abs=1e-6)
+    assert truth.gyr[:, 0, 0] == pytest.approx(A * W * np.cos(W * t), abs=1e-6)
+
+
+def test_an_identity_mount_changes_nothing_bit_for_bit():
+    plain = Simulator(arm_chain(), arm_swing(), mpu9250(), seed=2).simulate(2.0, 100.0)
+    swing = arm_swing()
+    mounted = Motion(swing.root, swing.joints, mount=lambda t: quat.identity((len(t),)),
+                     mount_pivot_m=(0.01, -0.05, 0.02))
+    same = Simulator(arm_chain(), mounted, mpu9250(), seed=2).simulate(2.0, 100.0)
+    for name in ("gyr", "acc", "mag", "flex_adc"):
+        assert np.array_equal(getattr(plain, name), getattr(same, name))
+    assert np.array_equal(plain.truth.p_sensors, same.truth.p_sensors)
+
+
 def test_the_finger_links_compose_as_seed_003_says():
     # Seed 003, sec. 2.1: theta_i = phi_0 + ... + phi_i, R_i a turn by theta_i about x,
     # r_i = l_i (0, cos theta_i, sin theta_i), sensor k at sum_{i < i_k} r_i + alpha l_ik y_ik, and
