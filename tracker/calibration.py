@@ -53,6 +53,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .atomic import atomic_write
 from .lowpass import LowPass2
+from . import quat
 from .protocol import RawSample
 
 Array = NDArray[np.float64]
@@ -215,6 +216,12 @@ TREMOR_MIN_HZ = 3.0  # the slowest tremor a player may have: essential tremor 4-
 # Mov. Disord. 13 suppl. 3 (1998) 2-23, sec. 2 and 4), widened to the 3-12 Hz a player profile allows
 
 
+ARM_RADIUS_M = 0.1  # the board's offset from the arm's axis is about the upper arm's radius, 4-6 cm
+# (anthropometric mid-arm circumference 25-35 cm, CDC NHANES body measures): a prior of 0.1 m on it
+FIT_NOISE = 2e-3  # what the hold's model leaves unexplained per low-passed sample, g: the
+# accelerometer's noise (MPU-9250: 300 ug/sqrt(Hz)) after the low-pass and a real arm's soft tissue
+
+
 def _covered(t: Array) -> float:
     """Seconds a window of sample times covers (each sample one median period)."""
     return float(t[-1] - t[0] + np.median(np.diff(t))) if len(t) > 1 else 0.0
@@ -225,9 +232,10 @@ class StartupParams:
     """Settings of :func:`startup_bias`.
 
     ``duration``: seconds of the hold needed (the game holds 2-2.5 s). ``max_bias``:
-    a larger mean rate on any axis (rad/s) is refused: the MPU-9250's zero-rate
-    offset is within +-5 deg/s (data sheet), so 8 deg/s means a slow turn or a faulty
-    gyroscope. ``max_tilt`` (rad): a larger net tilt of the arm over the hold is a
+    a larger mean rate on any axis (rad/s) is refused: the MPU-9250's zero-rate output
+    is within +-5 deg/s at 25 degC and moves by up to +-30 deg/s over its temperature
+    range (PS-MPU-9250A-01 rev. 1.1, table 1; a profile's gyro_bias_dps allows 30), so
+    35 deg/s means a steady turn or a faulty gyroscope. ``max_tilt`` (rad): a larger net tilt of the arm over the hold is a
     move: a sway of up to 4 deg peak (the issue's 0.1-1 Hz postural sway) swings the
     arm at most 8 deg peak to peak, so 8.5 deg. ``max_rate`` (rad/s): the low-passed
     rate that the tilt does not explain must stay under it (VQF's rest threshold for
@@ -236,7 +244,7 @@ class StartupParams:
     """
 
     duration: float = 2.0
-    max_bias: float = 8.0 * DEG
+    max_bias: float = 35.0 * DEG
     max_tilt: float = 8.5 * DEG
     max_rate: float = 2.0 * DEG
     smoothing: float = 2.0 / TREMOR_MIN_HZ
@@ -297,12 +305,13 @@ def _smooth(x: Array, kernel: Array) -> Array:
     return np.lib.stride_tricks.sliding_window_view(x, m, axis=0) @ kernel[::-1]
 
 
-def _rotation_vectors(t: Array, gyr: Array) -> Array:
-    """The board's rotation since the first sample (rotation vectors, sensor frame), integrating
-    q' = q (0, w) / 2 (Sola 2017, sec. 4.6) exactly per step with the step's mean rate; exact
-    products keep a coning tremor from posing as a rate (the mean of w is not the bias then)."""
-    out = np.zeros((len(t), 3))
+def _turned(t: Array, gyr: Array) -> Array:
+    """The board's rotation since the first sample, (N, 4) quaternions q_0i (sensor frames),
+    integrating q' = q (0, w) / 2 (Sola 2017, sec. 4.6) exactly per step with the step's mean
+    rate: exact products keep a coning tremor from posing as a turn."""
+    out = np.zeros((len(t), 4))
     w, x, y, z = 1.0, 0.0, 0.0, 0.0
+    out[0, 0] = 1.0
     for i in range(1, len(t)):
         h = 0.25 * (float(t[i]) - float(t[i - 1]))  # half the step's angle per unit of summed rate
         ax = (float(gyr[i, 0]) + float(gyr[i - 1, 0])) * h
@@ -313,14 +322,12 @@ def _rotation_vectors(t: Array, gyr: Array) -> Array:
         bx, by, bz = ax * s, ay * s, az * s
         w, x, y, z = (w * c - x * bx - y * by - z * bz, w * bx + x * c + y * bz - z * by,
                       w * by - x * bz + y * c + z * bx, w * bz + x * by - y * bx + z * c)
-        v = math.sqrt(x * x + y * y + z * z)
-        angle = 2.0 * math.atan2(v, w) / v if v > 0.0 else 2.0
-        out[i] = (x * angle, y * angle, z * angle)
+        out[i] = (w, x, y, z)
     return out
 
 
 def _basis(up: Array) -> Array:
-    """Rows e1, e2, up: two horizontal unit vectors and the vertical (sensor frame)."""
+    """Rows e1, e2 = up x e1, up: two horizontal unit vectors and the vertical (sensor frame)."""
     seed = np.array([1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     e1 = np.cross(up, seed)
     e1 /= np.linalg.norm(e1)
@@ -336,71 +343,86 @@ def _lstsq(x: Array, y: Array, scale: float) -> tuple[Array, Array, Array]:
     s: Array = np.linalg.lstsq(x, y, rcond=None)[0].astype(np.float64)
     e = y - x @ s
     var = float(e @ e) / max(1, len(y) - x.shape[1]) * scale
-    return s, np.sqrt(var * np.diag(np.linalg.pinv(x.T @ x))), e
+    return s, np.sqrt(var * np.abs(np.diag(np.linalg.pinv(x.T @ x)))), e
+
+
+def _lever_columns(gyr: Array, dw: Array, kernel: Array, basis: Array) -> Array:
+    """(n, 2, 3): the low-passed specific force, over g and about e1 and e2, that a lever arm of
+    1 m along each basis vector adds: w' x r + w x (w x r) (Seel et al. 2014, sec. 3.1, eq. 5)."""
+    cols = []
+    for r in basis:
+        centripetal = gyr * (gyr @ r)[:, None] - np.outer(np.sum(gyr * gyr, axis=1), r)
+        force = np.cross(dw, r) + _smooth(centripetal, kernel)
+        cols.append(force @ basis[:2].T / GRAVITY)
+    return np.stack(cols, axis=2)
 
 
 def fit_hold(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
              params: StartupParams | None = None) -> HoldFit:
-    """The gyroscope bias of a hold and how the arm moved during it.
+    """The gyroscope bias of a hold and how the arm moved during it (arrays as :func:`startup_bias`).
 
     While "still" a real arm trembles and sways, so the mean rate is the bias plus the
-    arm's net rotation over the hold divided by its length. The accelerometer shows
-    the rotation about horizontal axes: at rest it reads g along the sensor's up
-    ``u``, and a small rotation theta turns it to g (u - theta x u), so
-    c = (a x u) / g is the rotation's horizontal part (seed 003 sec. 2.1's
-    a = R^T (p'' - g), linearised). Against the integrated gyroscope phi (which
-    includes b t), r = phi - c = b t + const about horizontal axes, whatever the
-    sway. The board sits a lever arm rho below the joint it turns about, so the
-    accelerometer also feels the tangential acceleration w' x r_s
-    (r_s = -rho u): c gains rho w'_h / g, the term Seel, Raisch & Schauer
-    ("IMU-based joint angle measurement for gait analysis", Sensors 14 (2014)
-    6891-6909, sec. 3.1, eq. 5) use to locate joints; rho is fitted with b.
-    Tremor up to several g at the elbow is so explained, and left to the low-pass.
+    arm's net rotation over the hold divided by its length. The accelerometer sees
+    the rotation about horizontal axes: it reads g v(t) plus the acceleration of the
+    board (seed 003 sec. 2.1: a = R^T (p'' - g)), v the up direction in the sensor
+    frame. The gyroscope, integrated exactly (:func:`_turned`, rotation q(t) since
+    the start), predicts v(t) = q(t)^-1 v0 q(t); a bias error db left in the rates
+    turns the prediction by db t, so a / g - v = t (db x v) + const + lever terms,
+    whatever the tremor and sway. The board sits at r from the joint it turns about,
+    so it feels w' x r + w x (w x r) (Seel, Raisch & Schauer, "IMU-based joint angle
+    measurement for gait analysis", Sensors 14 (2014) 6891-6909, sec. 3.1, eq. 5,
+    where it locates joints): r is fitted with db, so tremor of several g at the
+    elbow is explained (r's horizontal part, the board's offset from the arm's axis,
+    held near zero by a prior of ARM_RADIUS_M). About the vertical, which the
+    accelerometer cannot see, the bias is the slope of the integrated rotation.
 
-    Both sides are low-passed alike (VQF judges rest on low-passed signals,
+    Both sides are low-passed alike first (VQF judges rest on low-passed signals,
     Laidig & Seel 2023, sec. 3.3; here the whole hold is at hand, so a zero-phase
-    Hann window, :func:`_hann`, without lag or start-up transient), then
-    r = b t + beta - rho w'_h / g is solved by least squares about the horizontal
-    axes, phi_up = b t + beta about the vertical (which the accelerometer cannot
-    see), twice, integrating again with the bias found. The tilt is the
-    horizontal part of the low-passed, bias-corrected rotation from the first to
-    the last low-passed sample; the unexplained rate is the time derivative of the
-    fit's residual.
+    Hann window, :func:`_hann`, without lag or start-up transient). The fit is
+    linear least squares, done twice, integrating again with the bias found. The
+    tilt is the angle between the low-passed, bias-corrected up direction at the
+    first and last low-passed samples; the unexplained rate is the time derivative
+    of the fit's residual (as an angle).
     """
     p = params or StartupParams()
     tt = np.asarray(t, dtype=np.float64)
     g, a = _rows(gyr, "gyr"), _rows(acc, "acc")
     dt = float(np.median(np.diff(tt)))
     kernel, dkernel = _hann(p.smoothing, dt)
-    mean = a.mean(axis=0)
-    gravity = float(np.linalg.norm(mean))
-    basis = _basis(mean / gravity)
+    basis = _basis(a.mean(axis=0) / float(np.linalg.norm(a.mean(axis=0))))
     tau = _smooth(tt - tt[0], kernel)
-    tilt_c = _smooth(np.cross(a, basis[2]) / gravity, kernel) @ basis.T
-    dw = _smooth(g, dkernel) @ basis.T  # the low-passed angular acceleration, basis frame
     n, scale = len(tau), 1.0 / float(kernel @ kernel)
-    x_h = np.zeros((2 * n, 5))  # unknowns: b_e1, b_e2, beta_e1, beta_e2, rho
-    x_h[:n, 0], x_h[n:, 1], x_h[:n, 2], x_h[n:, 3] = tau, tau, 1.0, 1.0
-    x_h[:, 4] = -np.concatenate([dw[:, 0], dw[:, 1]]) / gravity
+    lever = _lever_columns(g, _smooth(g, dkernel), kernel, basis)
+    # unknowns: db_e1, db_e2, const_e1, const_e2, the lever arm r_e1, r_e2, r_up; two prior rows
+    x_h = np.zeros((2 * n + 2, 7))
+    x_h[n:2 * n, 0], x_h[:n, 1], x_h[:n, 2], x_h[n:2 * n, 3] = -tau, tau, 1.0, 1.0
+    x_h[:n, 4:], x_h[n:2 * n, 4:] = lever[:, 0, :], lever[:, 1, :]
+    x_h[2 * n, 4] = x_h[2 * n + 1, 5] = math.sqrt(n) * FIT_NOISE / ARM_RADIUS_M  # a prior: r_e ~ 0
     x_v = np.stack([tau, np.ones(n)], axis=1)
     bias = np.zeros(3)
+    a_lp = _smooth(a, kernel)
+    centre = (len(kernel) - 1) // 2  # the sample at the middle of each low-passed one
     for _ in range(2):
-        phi = _smooth(_rotation_vectors(tt, g - bias), kernel) @ basis.T
-        r = phi - tilt_c
-        s_h, se_h, e_h = _lstsq(x_h, np.concatenate([r[:, 0], r[:, 1]]), scale)
-        s_v, _, e_v = _lstsq(x_v, phi[:, 2], scale)
-        step = np.array([s_h[0], s_h[1], s_v[0]])
-        bias = bias + step @ basis
-    moved = (phi[-1] - phi[0]) - step * (tau[-1] - tau[0])
-    residual = np.stack([e_h[:n], e_h[n:], e_v], axis=1)
+        q = _turned(tt, g - bias)
+        start = np.sum(quat.rotate(q[centre:centre + n], a_lp), axis=0)  # taken back to the start
+        v = _smooth(quat.rotate(quat.conjugate(q), start / np.linalg.norm(start)), kernel)
+        d = (a_lp / GRAVITY - v) @ basis[:2].T
+        s_h, se_h, e_h = _lstsq(x_h, np.concatenate([d[:, 0], d[:, 1], [0.0, 0.0]]), scale)
+        turn = _smooth(quat.to_rotvec(q), kernel) @ basis[2]
+        s_v, _, e_v = _lstsq(x_v, turn, scale)
+        step = s_h[0] * basis[0] + s_h[1] * basis[1] + s_v[0] * basis[2]
+        bias = bias + step
+    ends = v[[0, -1]] + np.outer(tau[[0, -1]], np.cross(step, basis[2]))
+    tilt = math.atan2(float(np.linalg.norm(np.cross(ends[0], ends[1]))), float(ends[0] @ ends[1]))
+    residual = np.stack([e_h[:n], e_h[n:2 * n], e_v], axis=1)
     rate = np.gradient(residual, tau, axis=0)
     norms = np.linalg.norm(rate, axis=1)
     worst = int(np.argmax(norms))
     se_v = math.sqrt(float(np.mean(rate[:, 2] ** 2)) / (n * float(kernel @ kernel)))
     std_error = np.sqrt(np.array([se_h[0], se_h[1], se_v]) ** 2 @ basis ** 2)
-    return HoldFit(bias, std_error, float(math.hypot(moved[0], moved[1])), float(norms[worst]),
+    return HoldFit(bias, std_error, tilt, float(norms[worst]),
                    bool(abs(rate[worst, 2]) > math.hypot(rate[worst, 0], rate[worst, 1])),
-                   float(s_h[4]), basis[2].copy())
+                   float(-s_h[6]), basis[2].copy())
 
 
 def _hold_problem(fit: HoldFit, p: StartupParams) -> str | None:
@@ -457,7 +479,7 @@ def startup_bias(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
             problem = f"the board moved during start-up: {moved}; hold it still and try again"
         elif np.max(np.abs(fit.bias)) > p.max_bias:
             problem = (f"the gyroscope read {_deg(fit.bias)} while still, more than the "
-                       f"{p.max_bias / DEG:g} deg/s a resting MPU-9250 shows: the board was "
+                       f"{p.max_bias / DEG:g} deg/s a resting MPU-9250 can show: the board was "
                        f"turning slowly, or its gyroscope is faulty; hold it still and try again")
     if problem or fit is None:
         return BiasResult(False, problem or "", np.zeros(3), np.zeros(3), _covered(tt))
