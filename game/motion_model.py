@@ -71,7 +71,7 @@ import json
 import math
 import os
 from dataclasses import asdict, dataclass, field, fields, replace
-from typing import Callable, Sequence, TypeVar
+from typing import Callable, Generic, Sequence, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -445,15 +445,22 @@ def _step_response(x: Array) -> Array:
 
 _RING_PEAK = float(np.max(_step_response(np.linspace(0.0, 4 * np.pi, 40001))
                           - _step_response(np.linspace(-np.pi, 3 * np.pi, 40001))))
+_RING_K = DAMPING_RATIO / math.sqrt(1.0 - DAMPING_RATIO**2)
 
 
 def ring(x: ArrayLike) -> Array:
     """The rocking after a kick, at x = w_d tau: the response to a push lasting half a
     damped period, S(x) - S(x - pi), scaled to a peak of 1. Position and rate are
     continuous at the kick (no jump for the simulator's differences); it decays by
-    exp(-zeta w tau) and rings at w_d = w sqrt(1 - zeta^2)."""
+    exp(-zeta w tau) and rings at w_d = w sqrt(1 - zeta^2).
+
+    With k = zeta / sqrt(1 - zeta^2) and D(x) = exp(-k x) (cos x + k sin x), S = 1 - D
+    after the step, and D(x - pi) = -exp(k pi) D(x): so S(x) - S(x - pi) is 1 - D(x)
+    for 0 < x <= pi and -(1 + exp(k pi)) D(x) after, one evaluation of D."""
     x = np.asarray(x, dtype=float)
-    return (_step_response(x) - _step_response(x - np.pi)) / _RING_PEAK
+    d = np.exp(-_RING_K * np.maximum(x, 0.0)) * (np.cos(x) + _RING_K * np.sin(x))
+    pushed = np.where(x > np.pi, -(1.0 + math.exp(_RING_K * math.pi)) * d, 1.0 - d)
+    return np.where(x > 0, pushed, 0.0) / _RING_PEAK
 
 
 @dataclass(frozen=True)
@@ -496,11 +503,36 @@ class _Wave:
 _Span = TypeVar("_Span", _Wave, _Ring)
 
 
-def _add_spans(out: Array, spans: Sequence[_Span], t: Array, row: Callable[[_Span], int]) -> None:
-    """Add each time-limited oscillation (zero outside t0-t1) to its row of ``out`` where it is on."""
-    lo, hi = (t.min(), t.max()) if len(t) else (math.inf, -math.inf)
-    for span in spans:
-        if span.t0 < hi and span.t1 > lo:
+class _Spans(Generic[_Span]):
+    """Time-limited oscillations (each zero outside its t0-t1) in the order added, with their
+    start and end times as arrays (built when first needed after a change) to find at once
+    the few that are on at given times."""
+
+    def __init__(self) -> None:
+        self._spans: list[_Span] = []
+        self._bounds: tuple[Array, Array] | None = None
+
+    def __len__(self) -> int:
+        return len(self._spans)
+
+    def add(self, *spans: _Span) -> None:
+        self._spans += spans
+        self._bounds = None
+
+    def forget_before(self, t: float) -> None:
+        """Drop those over by ``t``."""
+        self._spans = [s for s in self._spans if s.t1 > t]
+        self._bounds = None
+
+    def add_to(self, out: Array, t: Array, row: Callable[[_Span], int]) -> None:
+        """Add each oscillation to its row of ``out`` (C, M) at the times ``t`` (M,) where it is on."""
+        if not self._spans or not len(t):
+            return
+        if self._bounds is None:
+            self._bounds = (np.array([s.t0 for s in self._spans]), np.array([s.t1 for s in self._spans]))
+        starts, ends = self._bounds
+        for i in np.flatnonzero((starts < t.max()) & (ends > t.min())).tolist():
+            span = self._spans[i]
             inside = (t > span.t0) & (t < span.t1)
             out[row(span), inside] += span(t[inside])
 
@@ -620,8 +652,8 @@ class Script:
         self._sway = self._draw_sway(rng)
         self._rest_roll = self._tissue_roll(self._tremor)
         self._slip_sign = float(rng.choice([-1.0, 1.0]))
-        self._waves: list[_Wave] = []
-        self._rings: list[_Ring] = []
+        self._waves: _Spans[_Wave] = _Spans()
+        self._rings: _Spans[_Ring] = _Spans()
         self.launches: list[TrueLaunch] = []
         self.idle_intervals: list[Interval] = []
         self.segments: list[Segment] = []
@@ -685,13 +717,13 @@ class Script:
         sharpness = MINIMUM_JERK_PEAK_ACC * abs(change) / duration**2 / SHARPEST_DEG_S2
         amplitude = math.copysign(p.wobble_deg * min(1.0, sharpness), change)
         row = _KICKED[channel]
-        self._rings += [_Ring(t0, row, -amplitude, p.wobble_hz),
-                        _Ring(t0 + duration, row, amplitude, p.wobble_hz)]
+        self._rings.add(_Ring(t0, row, -amplitude, p.wobble_hz),
+                        _Ring(t0 + duration, row, amplitude, p.wobble_hz))
 
     def _wave(self, channel: str, t0: float, t1: float, amplitude: float, freq_hz: float,
               ramp: float, phase: float = 0.0) -> None:
         self._edited_from = min(self._edited_from, t0)
-        self._waves.append(_Wave(channel, t0, t1, amplitude, freq_hz * self.profile.speed, phase, ramp))
+        self._waves.add(_Wave(channel, t0, t1, amplitude, freq_hz * self.profile.speed, phase, ramp))
 
     def _reach_time(self, rng: np.random.Generator, angle_deg: float) -> float:
         """A point-to-point arm move lasts longer the farther it goes (about 0.7 s for 90 deg)."""
@@ -859,7 +891,7 @@ class Script:
         out = self._keyframes(t)
         self._tremor.add_to(out, t)
         self._sway.add_to(out, t)
-        _add_spans(out, self._waves, t, lambda w: _CHANNELS.index(w.channel))
+        self._waves.add_to(out, t, lambda w: _CHANNELS.index(w.channel))
         return out
 
     def _twist_degrees(self, t: Array) -> Array:
@@ -875,7 +907,7 @@ class Script:
         does not follow, and the slip (class docstring)."""
         out = np.zeros((len(_STRAP), len(t)))
         self._rest_roll.add_to(out, t)
-        _add_spans(out, self._rings, t, lambda r: r.row)
+        self._rings.add_to(out, t, lambda r: r.row)
         slip = self._slip_sign * self.profile.slip_deg_per_min * t / 60.0
         out[2] += slip - (1.0 - self.profile.twist_follow) * twist
         return out
@@ -927,8 +959,8 @@ class Script:
         """Let go of the motion before ``t`` (keyframes, ended oscillations): a script that is
         extended for an hour stays small and fast. The motion from ``t`` on is unchanged."""
         self._keyframes.forget_before(t)
-        self._waves = [w for w in self._waves if w.t1 > t]
-        self._rings = [r for r in self._rings if r.t1 > t]
+        self._waves.forget_before(t)
+        self._rings.forget_before(t)
 
     @property
     def motion(self) -> Motion:

@@ -480,9 +480,10 @@ class _ErrorProcess:
             x = x + self._warmup_curve(k).reshape((-1,) + (1,) * len(self.shape)) * self.warmup
         if self._white_std or self._step_std:
             noise = np.empty_like(x)
-            for b in np.unique(k // _CHUNK):
-                at = k // _CHUNK == b
-                noise[at] = self._random_block(int(b))[k[at] % _CHUNK]
+            blocks, within = np.divmod(k, _CHUNK)
+            for b in sorted(set(blocks.tolist())):
+                at = blocks == b
+                noise[at] = self._random_block(b)[within[at]]
             x = x + noise
         if m.resolution > 0:
             x = np.round(x / m.resolution) * m.resolution
@@ -617,23 +618,24 @@ class _FlexProcess:
     def _run(self, deg: Array, k0: int, state: State) -> tuple[Array, Array]:
         """The readings of samples k0, k0 + 1, ... from ``state`` (before k0), and the states before
         each of them and after the last, (N + 1, 3); keeps those before multiples of 4096."""
-        r, a, creep = self._half_width, self._decay, self.model.creep
+        r, a, b = self._half_width, self._decay, 1.0 - self._decay
         h, c, target = state
         bowed = self._bowed(deg) if self.model.nonlinearity else deg
-        targets = creep * np.clip(deg, 0.0, self.span)
-        plays, creeps, goals, out = [h], [c], [target], []
-        for y, goal in zip(bowed.tolist(), targets.tolist()):
-            c = a * c + (1.0 - a) * target
-            h = min(max(h, y - r), y + r)
-            target = goal
+        goals = [target] + (self.model.creep * np.clip(deg, 0.0, self.span)).tolist()
+        plays, creeps = [h], [c]
+        for low, high, goal in zip((bowed - r).tolist(), (bowed + r).tolist(), goals):
+            c = a * c + b * goal  # toward the target held over the interval before this sample
+            if h < low:
+                h = low
+            elif h > high:
+                h = high
             plays.append(h)
             creeps.append(c)
-            goals.append(target)
-            out.append(h - c)
+        states = np.array([plays, creeps, goals]).T
         for k in range(-(-k0 // _CHUNK) * _CHUNK, k0 + len(deg) + 1, _CHUNK):
-            i = k - k0
-            self._marks[k] = (plays[i], creeps[i], goals[i])
-        return np.array(out, dtype=float), np.array([plays, creeps, goals]).T
+            h, c, target = states[k - k0].tolist()
+            self._marks[k] = (h, c, target)
+        return states[1:, 0] - states[1:, 1], states
 
 
 @dataclass(frozen=True)
