@@ -207,6 +207,7 @@ class Calibration:
     clock: float = -GET_READY_S  # negative: getting ready
     poses: dict[str, list[ArmPose]] = field(default_factory=lambda: {"down": [], "forward": []})
     message: str = ""
+    bias_learned: bool = True  # the hold gave the gyroscope's bias (else the filter learns it in play)
 
     def instruction(self) -> str:
         keyboard = self.game.tracker is None
@@ -253,8 +254,9 @@ class Calibration:
                 newest = game.tracker.recent[-1].t
                 hold = [s for s in game.tracker.recent if s.t >= newest - HOLD_S["down"]]
                 bias, self.poses["down"] = game.tracker.tracking.hold_still(hold)
-                if not bias.ok:
-                    return self.fail(bias.message)
+                # A hold too shaky for the bias is no reason to lock the player out: the filter
+                # learns the bias in play. The pose decides (arm_down says if the arm moved).
+                self.bias_learned = bias.ok
             result = arm_down(game.avatar, self.poses["down"])
             if not result.ok:
                 return self.fail(result.message)
@@ -267,7 +269,8 @@ class Calibration:
             return self.fail(result.message)
         game.avatar.wearing = result.wearing
         game.calibrated = True
-        self.step, self.message = "done", "Calibrated! Press Enter."
+        later = "" if self.bias_learned else " (the gyroscope's bias is learned as you play)"
+        self.step, self.message = "done", f"Calibrated{later}! Press Enter."
         game.audio.play("wave")
         return None
 

@@ -185,3 +185,48 @@ def test_shots_into_a_folder_that_cannot_be_made_is_one_clear_line():
     assert r.returncode != 0 and "Traceback" not in r.stderr
     assert r.stderr.strip().splitlines() == [r.stderr.strip().splitlines()[-1]]
     assert "cannot write the screenshots" in r.stderr
+
+
+class _ShakyHoldTracker:
+    """A board whose arm hangs still, but whose hold the bias estimate refuses (say, a turn about the vertical)."""
+
+    def __init__(self):
+        from types import SimpleNamespace
+
+        import numpy as np
+
+        from game.pose import ArmPose
+        from tracker import protocol as P
+        from tracker.calibration import BiasResult
+
+        hanging = ArmPose((1.0, 0.0, 0.0, 0.0), 0.0, 0.0)
+        self.recent = [P.RawSample(0.0, 0, 0, (0, 0, 2048), (0, 0, 0), None, 390, 16, 2000)]
+        refused = BiasResult(False, "the arm turned about the vertical", np.zeros(3), np.zeros(3), 2.0)
+        self.tracking = SimpleNamespace(hold_still=lambda hold: (refused, [hanging] * 50))
+        self.forward = False
+        self._hanging = hanging
+        self.error, self.connected, self.status = None, True, "streaming"
+
+    def poll(self):
+        from game.pose import ArmPose
+        from tracker import quat as Q
+
+        if not self.forward:
+            return self._hanging
+        return ArmPose(tuple(Q.from_axis_angle((1.0, 0.0, 0.0), 1.5708)), 0.0, 0.0)
+
+    def close(self):
+        pass
+
+
+def test_a_hold_too_shaky_for_the_bias_still_calibrates_and_says_the_bias_is_learned_in_play(app):
+    tracker = _ShakyHoldTracker()
+    app.game.tracker = tracker
+    screen = Calibration(app.game, then_play=False)
+    app.screen = screen
+    frames(app, 2.0 + 2.6)  # get ready, then hold the arm down
+    assert screen.step == "forward" and not screen.bias_learned
+    tracker.forward = True
+    frames(app, 2.0 + 2.1)
+    assert screen.step == "done", screen.message
+    assert "learned as you play" in screen.message
