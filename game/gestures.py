@@ -36,9 +36,9 @@ spin time over ``charge_s``, capped at 1, and a spin shorter than
 
 The wave. A launch is a wave across the hysteresis band: from the last
 sample of the spin still held flexed (the "release": above flex-on less
-``hold_sag_deg``, see below) to the first of the samples below flex-off that
-confirm the launch (the "crossing"), in at most ``max_straighten_s`` (23 deg
-in 0.3 s by default: faster than 75 deg/s). A slower straightening is a
+``hold_sag`` of the band, see below) to the first of the samples below
+flex-off that confirm the launch (the "crossing"), in at most
+``max_straighten_s`` (22.5 deg in 0.3 s by default: faster than 75 deg/s). A slower straightening is a
 relaxation, not a throw: the ball stops spinning and stays (``LOADING``, a
 "load" event). So a player who relaxes into the band (say to 40 deg) and
 waves from there keeps the ball; flexing above flex-on again and waving
@@ -49,9 +49,10 @@ straight while the elbow is held bent (issue 12: up to 12 % of the bend,
 time constant ~4 s; Saggio et al., "Resistive flex sensors: a survey",
 Smart Mater. Struct. 25 (2016) 013001, sec. 5, on creep and hysteresis), so
 a spin held just past flex-on may read a few degrees below it after a few
-seconds although the player never relaxed. ``hold_sag_deg`` is that
-allowance: a spin still counts as held down to flex-on less 7 deg (12 % of
-55 deg is 6.6), and the relaxation rule times the wave from there. The
+seconds although the player never relaxed. ``hold_sag`` is that
+allowance, a share of the band between the thresholds: a spin still counts
+as held down to flex-on less 7.5 deg by default (12 % of 55 deg is 6.6), and
+the relaxation rule times the wave from there. The
 sensor's hysteresis (a play of up to 12 % of its 127 deg span, +-7.6 deg)
 only shifts the reading toward where the elbow came from: a straightened
 elbow reads at most that much bent (below flex-off for any straightening to
@@ -118,7 +119,7 @@ class GestureState(str, Enum):
     FIRED = "fired"        # ball launched, arm still up, no ball
 
 
-_ANGLES = ("raise_deg", "lower_deg", "flex_on_deg", "flex_off_deg", "hold_sag_deg", "aim_tolerance_deg")
+_ANGLES = ("raise_deg", "lower_deg", "flex_on_deg", "flex_off_deg", "aim_tolerance_deg")
 _TIMES = ("raise_dwell_s", "lower_dwell_s", "flex_dwell_s", "min_spin_s", "aim_lookback_s")
 _POSITIVE_TIMES = ("charge_s", "rise_s", "history_s", "wave_window_s")
 
@@ -150,13 +151,14 @@ class GestureSettings:
     Spin:
       ``min_spin_s`` 0.15: a shorter spin is no throw (the ball stays, LOADING).
       ``charge_s`` 1.2: the spin time that gives a full charge (charge = spin / charge_s, capped at 1).
-      ``hold_sag_deg`` 7: how far below flex-on a spin still counts as held
-      (the release, module doc "The sensor's own drift"); at least 0, less
-      than the band ``flex_on_deg - flex_off_deg``.
+      ``hold_sag`` 0.25: how far below flex-on a spin still counts as held
+      (the release, module doc "The sensor's own drift"), as a share of the
+      band ``flex_on_deg - flex_off_deg`` (7.5 deg of the default 30); 0 to
+      less than 1.
       ``max_straighten_s`` 0.3: the wave from the release to below flex-off
       must take at most this to launch; slower is a relaxation and keeps the
-      ball (a quick 90 deg wave takes 0.1-0.3 s, so its 23 deg from 48 to 25
-      deg 0.02-0.08 s; letting a 90 deg flex sag over 1.2 s or more is no throw).
+      ball (a quick 90 deg wave takes 0.1-0.3 s, so its 22.5 deg from 47.5 to
+      25 deg 0.02-0.08 s; letting a 90 deg flex sag over 1.2 s or more is no throw).
       ``math.inf`` turns the check off (every straightening then launches).
     Aim:
       ``aim_lookback_s`` 0.25: how far before the release the start of the
@@ -182,7 +184,7 @@ class GestureSettings:
     wave_window_s: float = 0.02
     min_spin_s: float = 0.15
     charge_s: float = 1.2
-    hold_sag_deg: float = 7.0
+    hold_sag: float = 0.25
     max_straighten_s: float = 0.3
     aim_lookback_s: float = 0.25
     aim_tolerance_deg: float = 8.0
@@ -215,9 +217,9 @@ class GestureSettings:
         if self.flex_off_deg >= self.flex_on_deg:
             raise ValueError(f"flex_off_deg ({self.flex_off_deg}) must be below flex_on_deg "
                              f"({self.flex_on_deg}): the gap between them is the hysteresis that stops chatter")
-        if self.hold_sag_deg >= self.flex_on_deg - self.flex_off_deg:
-            raise ValueError(f"hold_sag_deg ({self.hold_sag_deg}) must be less than the band between flex_off_deg "
-                             f"and flex_on_deg ({self.flex_on_deg - self.flex_off_deg:g})")
+        if not 0.0 <= self.hold_sag < 1.0:
+            raise ValueError(f"hold_sag must be a share of the flex band from 0 to less than 1, "
+                             f"not {self.hold_sag!r}")
         if not self.wave_speed_dps > 0.0:
             raise ValueError(f"wave_speed_dps must be a speed of more than 0 deg/s (math.inf turns the quick "
                              f"confirmation off), not {self.wave_speed_dps!r}")
@@ -227,6 +229,12 @@ class GestureSettings:
         if math.isfinite(needed) and self.history_s < needed - 1e-12:
             raise ValueError(f"history_s ({self.history_s}) must be at least aim_lookback_s + max_straighten_s"
                              f" + flex_dwell_s ({needed:g}), or the aim could be forgotten before the launch")
+
+
+    @property
+    def hold_deg(self) -> float:
+        """The flex above which a spin still counts as held: flex-on less ``hold_sag`` of the band."""
+        return self.flex_on_deg - self.hold_sag * (self.flex_on_deg - self.flex_off_deg)
 
 
 @mypyc_attr(native_class=False)  # a plain class even when compiled (README, "The compiled build")
@@ -286,7 +294,7 @@ class GestureMemory:
     pointing: Vec3 = DOWN  # the last usable sample's pointing
     rise_start: float = -math.inf  # when the ball began to float up
     spin_start: float = 0.0  # the onset of the flex that started the spin
-    release: Sample | None = None  # the last sample of this spin held flexed (above flex-on less the sag)
+    release: Sample | None = None  # the last sample of this spin held flexed (above hold_deg)
     raised: Dwell = field(default_factory=Dwell)
     lowered: Dwell = field(default_factory=Dwell)
     flexed: Dwell = field(default_factory=Dwell)
@@ -419,7 +427,7 @@ class GestureMachine:
             return []
         if m.lowered.step(sample.elevation < s.lower_deg, sample.t, s.lower_dwell_s):
             return [self._enter(GestureState.IDLE, "idle")]
-        if m.state is GestureState.SPINNING and sample.flex > s.flex_on_deg - s.hold_sag_deg:
+        if m.state is GestureState.SPINNING and sample.flex > s.hold_deg:
             m.release = sample
         if m.lowered.since is not None:  # the arm is on its way down: hold the forearm
             m.flexed.since = m.straight.since = None

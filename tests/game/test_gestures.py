@@ -470,6 +470,11 @@ def test_event_sequences_are_always_walks_of_the_state_machine():
     ({"raise_deg": math.nan}, "raise_deg must be a number"),
     ({"flex_dwell_s": "0.1"}, "flex_dwell_s must be a number"),
     ({"rise_s": True}, "rise_s must be a number"),
+    ({"hold_sag": 1.0}, "hold_sag must be a share of the flex band from 0 to less than 1"),
+    ({"hold_sag": -0.1}, "hold_sag must be a share"),
+    ({"wave_speed_dps": 0.0}, "wave_speed_dps must be a speed of more than 0 deg/s"),
+    ({"wave_window_s": 0.0}, "wave_window_s must be a time of more than 0 s"),
+    ({"wave_window_s": 2.0}, r"history_s \(1.0\) must be at least wave_window_s \(2.0\)"),
 ])
 def test_settings_reject_nonsense_with_a_clear_message(changes, message):
     with pytest.raises(ValueError, match=message):
@@ -483,6 +488,11 @@ def test_default_settings_are_valid_and_frozen():
         s.raise_deg = 10.0  # type: ignore[misc]
     GestureSettings(raise_dwell_s=0.0, max_straighten_s=math.inf, history_s=0.5)
     GestureSettings(max_straighten_s=1.5, history_s=2.0)
+    GestureSettings(wave_speed_dps=math.inf, hold_sag=0.0)
+    assert s.hold_deg == pytest.approx(55.0 - 0.25 * 30.0)
+    # any band the preferences allow keeps a valid hold level inside it
+    narrow = GestureSettings(flex_on_deg=26.0, flex_off_deg=25.0)
+    assert 25.0 < narrow.hold_deg < 26.0
 
 
 def test_events_validate_themselves():

@@ -209,7 +209,7 @@ def test_creep_sagging_a_shallow_spin_below_flex_on_does_not_cancel_it():
     assert (wave_start - sagged) / RATE > s.max_straighten_s
     assert [e.kind for e in events] == ["load", "spin", "launch"]
     # without the allowance for the sag, the same spin is taken for a relaxation
-    strict = machine_events(adc_from_degrees(reading), script.arrays()[1], GestureSettings(hold_sag_deg=0.0))
+    strict = machine_events(adc_from_degrees(reading), script.arrays()[1], GestureSettings(hold_sag=0.0))
     assert [e.kind for e in strict] == ["load", "spin", "load"]
 
 
