@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, Sequence
 
 import numpy as np
@@ -31,7 +31,8 @@ import numpy as np
 from tracker import protocol as P
 from tracker import quat as Q
 from tracker.calibration import BoardCalibration, Pose, six_pose_calibration
-from tracker.sim import Motion, Simulator
+from tracker.magfit import MagFit, MagFitError, fit_ellipsoid, judge
+from tracker.sim import Chain, LinkSpec, Motion, SensorSpec, SimData, Simulator
 from tracker.sim_board import RATE_HZ, SimBoard
 
 from .avatar import Avatar, BodySettings
@@ -78,35 +79,61 @@ def board_stream(sim_session: Session, profile: PlayerProfile, seed: int) -> lis
 
 
 SIX_POSES = ((0, 0, 1), (0, 0, -1), (1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0))
+TURN_S = 40.0  # the maker turns the board through every orientation for this long
+TURN_DECIMATE = 10  # every 10th sample of the turn goes into the fit (20 Hz)
+
+
+def _on_the_table(profile: PlayerProfile, seed: int, root: Callable[[np.ndarray], np.ndarray],
+                  seconds: float) -> SimData:
+    """The simulated board (same seed, so the same errors) held by a maker, not worn: turned
+    by ``root`` on the spot, with no tremor, sway or strap."""
+    chain = Chain((LinkSpec("board", 0.0),), (SensorSpec("imu", 0, (0.0, 0.0, 0.0)),))
+    motion = Motion(root, lambda t: np.zeros((len(t), 0)))
+    return Simulator(chain, motion, profile.sensor_errors(), seed=seed).simulate(seconds, RATE_HZ)
+
+
+def _tumble(t: np.ndarray) -> np.ndarray:
+    """Turning the board through every orientation: spinning it about its own z once every 3 s
+    while tilting that axis from up to down and back over ``TURN_S`` (a spiral over the sphere)."""
+    tilt = Q.from_axis_angle((1.0, 0.0, 0.0), np.pi * (1 - np.cos(2 * np.pi * t / TURN_S)) / 2)
+    return Q.multiply(tilt, Q.from_axis_angle((0.0, 0.0, 1.0), 2 * np.pi * t / 3.0))
 
 
 def maker_calibration(profile: PlayerProfile, seed: int) -> tuple[BoardCalibration, str | None]:
-    """The six-pose accelerometer calibration a maker does once per board (README), simulated.
+    """The calibrations a maker does once per board (README), simulated on the same board.
 
-    The same simulated board (same seed, so the same zero-g offsets and scale
-    errors) lies still on a table for two seconds with each axis up and then
-    down: no player wears it, so no tremor, sway or strap reaches it;
-    :func:`tracker.calibration.six_pose_calibration` solves offset and scale.
-    Returns the calibration and None, or an uncalibrated board and why the fit
-    failed (a reported figure, never an exception).
+    Accelerometer: the board lies still on a table for two seconds with each
+    axis up and then down; :func:`tracker.calibration.six_pose_calibration`
+    solves offset and scale. Magnetometer: the maker turns the board on the
+    spot through every orientation (:func:`_tumble`, 40 s) and
+    :func:`tracker.magfit.fit_ellipsoid` finds its hard and soft iron, as
+    ``armtracker calibrate mag`` is to let real makers do. No player wears the
+    board: no tremor, sway or strap reaches it. Returns the calibration and
+    None, or what it has and why a fit failed (a reported figure, never an
+    exception).
     """
-    chain = profile.chain()
-    mount = chain.sensors[0].mount
     poses = []
     for axis in SIX_POSES:
-        sensor = Q.from_two_vectors(axis, (0.0, 0.0, 1.0))  # that sensor axis up
-        root = Q.multiply(sensor, Q.conjugate(mount))
+        up = Q.from_two_vectors(axis, (0.0, 0.0, 1.0))  # that sensor axis up
 
-        def still(t: np.ndarray, root: np.ndarray = root) -> np.ndarray:
-            return np.broadcast_to(root, (len(t), 4))
+        def still(t: np.ndarray, up: np.ndarray = up) -> np.ndarray:
+            return np.broadcast_to(up, (len(t), 4))
 
-        motion = Motion(still, lambda t: np.zeros((len(t), 1)))
-        data = Simulator(chain, motion, profile.sensor_errors(), profile.flex_sensor(), seed=seed).simulate(2.0, RATE_HZ)
+        data = _on_the_table(profile, seed, still, 2.0)
         poses.append(Pose(data.acc[:, 0], data.gyr[:, 0]))
-    result = six_pose_calibration(poses)
-    if not result.ok:
-        return BoardCalibration(), f"six-pose calibration failed: {result.message}"
-    return BoardCalibration(acc_offset=result.offset, acc_scale=result.scale), None
+    acc = six_pose_calibration(poses)
+    turned = _on_the_table(profile, seed, _tumble, TURN_S).mag[::TURN_DECIMATE, 0]
+    try:
+        mag: MagFit | None = fit_ellipsoid(turned)
+        problem = judge(mag)
+    except MagFitError as e:
+        mag, problem = None, str(e)
+    problems = ([] if acc.ok else [f"six-pose calibration failed: {acc.message}"]) + \
+        ([f"magnetometer calibration failed: {problem}"] if problem else [])
+    cal = BoardCalibration(acc_offset=acc.offset, acc_scale=acc.scale)  # the identity when not ok
+    if mag is not None and not problem:
+        cal = replace(cal, mag_hard_iron=np.array(mag.offset), mag_soft_iron=np.array(mag.soft_iron))
+    return cal, "; ".join(problems) or None
 
 
 def _within(t: float, interval: tuple[float, float], last_s: float | None = None) -> bool:

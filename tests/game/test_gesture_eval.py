@@ -123,3 +123,21 @@ def test_envelope_and_profile_do_not_go_together(tmp_path):
     r = energyball("gestures-eval", "--envelope", "--profile", str(path))
     assert r.returncode == 1 and "Traceback" not in r.stderr
     assert "--envelope" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("name", ["typical", "magnetic_room"])
+def test_the_simulated_maker_recovers_the_boards_own_errors(name):
+    from game.gesture_eval import _on_the_table, _tumble, maker_calibration
+    from game.motion_model import catalogue
+
+    profile = catalogue()[name]
+    cal, problem = maker_calibration(profile, seed=9)
+    assert problem is None
+    truth = _on_the_table(profile, 9, _tumble, 0.1)  # the same board: the errors it drew
+    assert np.linalg.norm(cal.mag_hard_iron - truth.hard_iron[0]) < 0.5  # uT, of 30-150 uT
+    inverse = np.linalg.inv(truth.soft_iron[0])
+    w_true = inverse / np.linalg.det(inverse) ** (1 / 3)  # the fit's scale: det W = 1
+    assert np.abs(cal.mag_soft_iron - w_true).max() < 0.01
+    g = 9.80665
+    acc_offset = truth.offset["acc"][0]
+    assert np.abs(cal.acc_offset - acc_offset).max() < 0.005 * g  # 5 mg, of up to 60 mg
