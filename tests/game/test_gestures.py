@@ -8,7 +8,7 @@ import pytest
 
 from game.avatar import ArmState
 from game.gestures import (GestureEvent, GestureMachine, GestureSettings, GestureState, Sample,
-                           straightening_start)
+                           extending_fast, straightening_start)
 
 RATE = 200.0  # Hz
 SHOULDER = np.array([0.19, 0.0, 1.45])
@@ -306,6 +306,19 @@ def test_straightening_start_is_the_last_top_before_the_release():
     assert straightening_start(h, h[40], 0.25, 8.0).t == pytest.approx(0.80)
     # nothing in the history: the release itself
     assert straightening_start([], h[3], 0.25, 8.0) == h[3]
+
+
+def test_extending_fast_needs_every_step_of_the_window_to_straighten_fast_enough():
+    # steps of 1 deg every 5 ms are 200 deg/s; the window of 20 ms holds the last four
+    fall = samples([60, 59, 58, 57, 56, 55], dt=0.005)
+    assert extending_fast(fall, 0.02, 150.0) and not extending_fast(fall, 0.02, 250.0)
+    # one flat step in the window (a glitch's bottom, a pause) is enough to wait
+    assert not extending_fast(samples([60, 59, 58, 58, 57, 56], dt=0.005), 0.02, 150.0)
+    # ... but a flat step older than the window is not looked at
+    assert extending_fast(samples([60, 60, 59, 58, 57, 56], dt=0.005), 0.02, 150.0)
+    # a single step is never enough, however fast; nor is nothing
+    assert not extending_fast(samples([90, 10], dt=0.005), 0.02, 150.0)
+    assert not extending_fast([], 0.02, 150.0)
 
 
 # ------------------------------------------------------------------ charge
