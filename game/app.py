@@ -143,8 +143,15 @@ class Game:
                 f"board {health.rate_hz:.0f} Hz, loss {100 * health.loss:.1f}%")
         return {"score": self.arena.score, "wave": self.arena.wave, "health": self.arena.player.health,
                 "ball": self.gestures.state.value, "charge": self.gestures.charge, "input": link,
-                "calibrated": self.calibrated, "fps": self.fps,
+                "calibrated": self.calibrated, "fps": self.fps, "magnetometer": self.magnetometer_warning(),
                 "notice": f"board found on {self.board_offer}: press B to use it" if self.board_offer else ""}
+
+    def magnetometer_warning(self) -> str:
+        """"magnetometer off: <why>" while the board's filter has switched its magnetometer off, else ""."""
+        tracking = getattr(self.tracker, "tracking", None)
+        if tracking is None or not tracking.filter.flags.mag_unusable:
+            return ""
+        return tracking.filter.status
 
 
 # ----------------------------------------------------------------- screens

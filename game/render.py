@@ -1335,7 +1335,9 @@ class Renderer:
 
         Keys (all optional): score, wave, health, health_max, ball (or
         ball_state), charge 0..1, input (a ready-made line) or source +
-        rate_hz + loss_pct, calibrated, fps, notice.
+        rate_hz + loss_pct, calibrated, magnetometer (a line, shown in the
+        warning colour, when the tracker's filter has switched it off), fps,
+        notice.
         """
         w, h = surface.get_size()
         t = self.text
@@ -1371,9 +1373,10 @@ class Renderer:
             lines.append(", ".join(parts))
         if "calibrated" in hud:
             lines.append("calibrated: " + ("yes" if hud["calibrated"] else "no"))
+        warnings = [str(hud["magnetometer"])] if hud.get("magnetometer") else []
         y = h - 14
-        for line in reversed(lines):
-            colour = (255, 150, 120) if line.endswith(": no") else DIM_TEXT
+        for line in reversed(lines + warnings):
+            colour = (255, 150, 120) if line.endswith(": no") or line in warnings else DIM_TEXT
             y = t.blit(surface, line, small, colour, (16, y), "bottomleft").top - 2
         notice = hud.get("notice")
         if notice:

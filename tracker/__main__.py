@@ -144,16 +144,44 @@ def cmd_ports(args: argparse.Namespace) -> int:
     return 0
 
 
+class MonitorFusion:
+    """The default filter run on the raw samples a monitor shows, to say what it makes of the
+    magnetometer (:attr:`DefaultFilter.status`); fused samples are the board's own estimate."""
+
+    MAX_GAP_S = 0.5  # a longer gap between samples (link loss) keeps the last good time step
+
+    def __init__(self) -> None:
+        from .fusion.default import DefaultFilter
+        self.filter = DefaultFilter()
+        self._last_t: float | None = None
+        self._dt = 0.005
+
+    def feed(self, s: P.RawSample | P.FusedSample) -> None:
+        if not isinstance(s, P.RawSample):
+            return
+        if self._last_t is not None and 0.0 < s.t - self._last_t < self.MAX_GAP_S:
+            self._dt = s.t - self._last_t
+        self._last_t = s.t
+        self.filter.update(s.gyr, s.acc, s.mag, self._dt)
+
+    @property
+    def status(self) -> str:
+        """"magnetometer on", "magnetometer off: <why>", "no magnetometer"; "" before any raw sample."""
+        return self.filter.status if self._last_t is not None else ""
+
+
 def cmd_monitor(args: argparse.Namespace) -> int:
     status = StatusLine()
     last = None
+    fusion = MonitorFusion()
     with open_source(args) as link:
         end = _until(args.seconds)
         try:
             while time.monotonic() < end:
                 for s in link.drain():
                     last = s
-                status.show(_health_text(link) + sample_text(last))
+                    fusion.feed(s)
+                status.show(_health_text(link) + sample_text(last) + (f"  {fusion.status}" if fusion.status else ""))
                 time.sleep(0.02)
         except KeyboardInterrupt:
             pass
@@ -163,12 +191,13 @@ def cmd_monitor(args: argparse.Namespace) -> int:
         report = {"frames": stats.frames, "rate_hz": h.rate_hz, "crc_errors": stats.crc_errors,
                   "dropped": stats.dropped, "bytes_skipped": stats.bytes_skipped,
                   "hello": link.hello.to_json() if link.hello else None, "last": sample_json(last),
-                  "link": h.to_json(), "seconds": elapsed}
+                  "link": h.to_json(), "seconds": elapsed, "magnetometer": fusion.status or None}
     if args.json:
         print(json.dumps(report))
     else:
         print(f"{report['frames']} frames, {h.rate_hz:.1f} Hz, {stats.dropped} dropped, "
-              f"{stats.crc_errors} CRC errors, {stats.bytes_skipped} bytes skipped")
+              f"{stats.crc_errors} CRC errors, {stats.bytes_skipped} bytes skipped"
+              + (f"; {fusion.status}" if fusion.status else ""))
     return 0
 
 

@@ -55,6 +55,8 @@ class Flags:
     rest: bool = False  # the filter believes the sensor is at rest (where it detects rest)
     acc_rejected: bool = False  # accelerometer judged disturbed and not used (where supported)
     mag_rejected: bool = False  # magnetometer judged disturbed and not used (where supported)
+    mag_unusable: bool = False  # magnetometer judged unusable for now (uncalibrated or disturbed; where
+    # supported): heading from the gyroscope alone until it proves consistent again
 
 
 class _HasQuat(Protocol):

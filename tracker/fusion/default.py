@@ -18,6 +18,27 @@ filtered there: in I the gravity direction moves only as slowly as q_gyr
 drifts, while linear accelerations of real motion average out. ``q_inc`` is
 the rotation that makes this filtered direction vertical. ``q_heading`` turns
 the horizontal part of the magnetic field, seen in the 6D frame, to north.
+
+Two things hold up on a real player with a real board:
+
+- The gyroscope bias is a small Kalman-style estimate (VQF sec. 3.3, "rest
+  bias estimation" and "motion bias estimation"): a 3x3 covariance says how
+  well each direction of the bias is known. In motion the inclination
+  correction observes the two horizontal components (Mahony eq. 32's
+  integral term, with a gain per direction); as the arm turns, every sensor
+  axis takes its turn at being horizontal, and the covariance gives the one
+  that was vertical the larger gain. At rest (judged on low-passed signals,
+  so that a tremor does not hide it) the low-passed gyroscope observes all
+  three. The uncertainty grows back when nothing observes it, so the
+  estimate follows the MPU-9250's warm-up drift.
+- The magnetometer is used only while its field is consistent: with a
+  hard-iron offset or a soft-iron distortion (an uncalibrated board) or an
+  indoor disturbance that changes with position, the field's norm and dip
+  change as the board turns (VQF sec. 3.4 tests norm and dip sample by
+  sample against an adapting reference; here their spread over a window is
+  judged as well). A field found inconsistent is switched off (heading from
+  the gyroscope alone; :attr:`DefaultFilter.status` says why) until it has
+  stayed consistent for a while with the board turning.
 """
 
 from __future__ import annotations
@@ -30,28 +51,55 @@ from mypy_extensions import mypyc_attr
 from ..calibration import RestDetector, RestParams
 from ..lowpass import LowPass2
 from .base import Filter
-from .qmath import (IDENTITY, Quat, Vec, about_z, from_rotvec, integrate, mul, normalize, rotate,
-                    rotate_inverse, tilt_to_up)
+from .qmath import IDENTITY, Quat, Vec, about_z, from_rotvec, integrate, mul, normalize, rotate, tilt_to_up
 
 GRAVITY = 9.81
+BIAS_EVERY = 4  # samples per update of the bias in motion
+Sym3 = tuple[float, float, float, float, float, float]  # a symmetric 3x3 matrix: xx, xy, xz, yy, yz, zz
+
+MAG_STRENGTH = "field strength changes as the board moves (uncalibrated or disturbed?)"
+MAG_DIP = "field direction changes as the board moves (uncalibrated or disturbed?)"
 
 
 @dataclass(frozen=True)
 class DefaultParams:
-    """Settings of the default filter (times in seconds, thresholds in SI units)."""
+    """Settings of the default filter (times in seconds, thresholds in SI units).
+
+    Bias: the MPU-9250's zero-rate offset is within +-5 deg/s at power-on
+    (PS-MPU-9250A-01 rev. 1.1, sec. 3.1) and drifts by up to 4 deg/s more as the
+    board warms over its first minutes (EnergyBall issue 12, from the data
+    sheet's zero-rate output versus temperature), hence ``bias_max``.
+    ``bias_tau_min`` is the fastest the motion estimate may follow: the
+    correction it learns from comes through the accelerometer's low-pass of
+    ``tau_acc``, and an integral loop around a second-order low-pass of
+    time constant 3 s keeps a phase margin above 50 degrees only below about
+    0.2 rad/s. Rest: a tremor of 2 deg at 3-12 Hz (up to 150 deg/s) is cut by
+    the 1 s low-pass ``rest_lp_tau`` to 0.2 deg/s at most (second-order
+    roll-off from 0.23 Hz), under ``rest_gyr_th``.
+    """
 
     tau_acc: float = 3.0  # low-pass time constant of the accelerometer in frame I (VQF sec. 3.2)
     tau_mag: float = 20.0  # time constant of the heading correction (VQF sec. 3.4 uses 9 s)
-    rest_gyr_th: float = math.radians(2.0)  # rest: gyro deviation below this (rad/s) (VQF sec. 3.3)
-    rest_acc_th: float = 0.5  # rest: accelerometer deviation below this (m/s^2)
-    rest_min_t: float = 1.5  # rest: held this long
-    rest_tau: float = 0.5  # low-pass time constant of the rest detector's signals
-    bias_tau_rest: float = 1.0  # at rest the bias follows the low-passed gyro with this time constant
-    bias_ki: float = 0.01  # integral gain of the bias estimate in motion (Mahony eq. 32), 1/s
-    bias_max: float = math.radians(5.0)  # |bias| limit: the MPU-9250's zero-rate offset bound
+    rest_lp_tau: float = 1.0  # the rest test low-passes gyro and accelerometer first (VQF sec. 3.3)
+    rest_gyr_th: float = math.radians(0.5)  # rest: the low-passed gyro varies less than this (rad/s)
+    rest_acc_th: float = 0.2  # rest: the low-passed accelerometer varies less than this (m/s^2)
+    rest_min_t: float = 1.5  # rest: held this long (VQF sec. 3.3)
+    rest_tau: float = 0.5  # low-pass time constant of the rest detector's signals (VQF sec. 3.3)
+    bias_tau_min: float = 3.0  # the bias estimate's fastest time constant in motion, s
+    bias_tau_rest: float = 1.0  # its time constant at rest while the bias is least known, s
+    bias_turn_rate: float = 0.25  # turning this fast (rad/s, low-passed) halves what motion tells of the bias
+    bias_forget_t: float = 20.0  # a bias direction nothing observes is unknown again after about this, s
+    bias_max: float = math.radians(10.0)  # |bias| limit per axis: power-on offset plus warm-up
     mag_norm_th: float = 0.1  # field norm deviating by more than this fraction: disturbed
     mag_dip_th: float = math.radians(10.0)  # dip angle deviating by more than this: disturbed
     mag_ref_tau: float = 20.0  # how fast the undisturbed field reference (norm, dip) adapts
+    mag_window_t: float = 5.0  # the window (time constant) over which the field's consistency is judged
+    mag_norm_sd_th: float = 0.05  # field unusable: the norm's spread over the window beyond this fraction
+    mag_dip_sd_th: float = math.radians(15.0)  # field unusable: the dip's spread beyond this (rad; above
+    # what inclination errors while the bias is still being learned give a good field)
+    mag_judge_t: float = 1.5  # the field is judged once this much of the window has filled
+    mag_turn_th: float = 0.1  # "the board has turned": spread of its axes over the window (rad^2)
+    mag_on_t: float = 15.0  # the field is used (again) after being consistent this long while turning
     startup_t: float = 1.0  # during the first second corrections use plain averaging (fast start)
 
 
@@ -61,17 +109,38 @@ class DefaultState:
     """Everything the default filter has learned (read with get_state, restore with set_state)."""
 
     acc_lp: LowPass2  # the accelerometer in frame I, low-passed
-    rest: RestDetector
+    rest_gyr: LowPass2  # the gyroscope low-passed for the rest test (sensor frame)
+    rest_acc: LowPass2  # the accelerometer low-passed for the rest test (sensor frame)
+    rest: RestDetector  # judges the low-passed signals
+    bias_p: Sym3  # how well the bias is known: its covariance over the motion measurement's noise, 1/s
+    bias_lp_r0: LowPass2  # R_IS (strapdown, by rows) low-passed as the accelerometer in I is
+    bias_lp_r1: LowPass2
+    bias_lp_r2: LowPass2
+    bias_lp_rb: LowPass2  # R_IS b_est low-passed alike
+    tilt_sum: tuple[float, float] = (0.0, 0.0)  # the inclination corrections since the last bias update
+    tilt_dt: float = 0.0  # over this long (s) ...
+    tilt_n: int = 0  # ... in this many samples
     q: Quat = IDENTITY  # the output, q_WS
     q_gyr: Quat = IDENTITY  # strapdown S -> I
     q_inc: Quat = IDENTITY  # inclination correction I -> E
     heading: float = 0.0  # rotation about world z, radians
     bias: Vec = (0.0, 0.0, 0.0)  # gyroscope bias, rad/s, sensor frame
     t: float = 0.0  # time since start
-    rest_t: float = 0.0  # how long the rest conditions have held
+    acc_mean: Vec = (0.0, 0.0, 0.0)  # the accelerometer in I averaged over the start-up ...
+    acc_n: int = 0  # ... of this many samples
     mag_norm: float = 0.0  # reference field norm (uT), 0 until known
     mag_dip: float = 0.0  # reference dip angle (rad)
     mag_samples: int = 0  # undisturbed magnetometer samples used so far
+    mag_t: float = 0.0  # seconds of magnetometer samples seen (the window fills)
+    win_norm: float = 0.0  # the window's mean field norm (uT) ...
+    win_norm_var: float = 0.0  # ... and its variance (uT^2)
+    win_dip: float = 0.0  # the window's mean dip (rad) ...
+    win_dip_var: float = 0.0  # ... and its variance (rad^2)
+    win_y: Vec = (0.0, 0.0, 0.0)  # the window's mean of world y in the sensor frame
+    win_z: Vec = (0.0, 0.0, 0.0)  # and of world z: how far the board turned
+    mag_good_t: float = 0.0  # seconds an unusable field has been consistent while turning
+    mag_checked: bool = False  # the field has proved consistent while the board turned
+    mag_reason: str = ""  # why the magnetometer is off ("": not found inconsistent)
 
 
 class DefaultFilter(Filter[DefaultParams, DefaultState]):
@@ -85,41 +154,98 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         p = self.params
         # The rest detector is fed the raw rate, so the low-passed rate may be as large as the bias can be.
         rest = RestDetector(RestParams(p.rest_gyr_th, p.rest_acc_th, 2 * p.bias_max, p.rest_min_t, p.rest_tau))
-        return DefaultState(LowPass2(p.tau_acc), rest)
+        k = 1.0 / p.bias_tau_min
+        return DefaultState(LowPass2(p.tau_acc), LowPass2(p.rest_lp_tau), LowPass2(p.rest_lp_tau), rest,
+                            (k, 0.0, 0.0, k, 0.0, k), LowPass2(p.tau_acc), LowPass2(p.tau_acc),
+                            LowPass2(p.tau_acc), LowPass2(p.tau_acc))
+
+    @property
+    def status(self) -> str:
+        """The magnetometer's use in words: "magnetometer on", "magnetometer off: <why>",
+        "magnetometer being checked" (its field not yet consistent for ``mag_on_t``; the heading
+        is the gyroscope's meanwhile) or "no magnetometer" (none seen yet)."""
+        s = self._state
+        if s.mag_reason:
+            return "magnetometer off: " + s.mag_reason
+        if not s.mag_samples:
+            return "no magnetometer"
+        return "magnetometer on" if s.mag_checked else "magnetometer being checked"
 
     def _step(self, gyr: Vec, acc: Vec | None, mag: Vec | None, dt: float) -> Quat:
         s, p = self._state, self.params
         s.t += dt
+        self._forget_bias(dt)
         if acc is not None:
             self._detect_rest(gyr, acc, dt)
         # 1. Strapdown integration of the bias-corrected rate (VQF sec. 3.1).
         b = s.bias
         s.q_gyr = normalize(integrate(s.q_gyr, (gyr[0] - b[0], gyr[1] - b[1], gyr[2] - b[2]), dt))
         # 2. Inclination from the accelerometer low-passed in frame I (VQF sec. 3.2),
-        #    and the bias from the correction while in motion (Mahony eq. 32).
+        #    and the bias from the correction while in motion (VQF sec. 3.3, Mahony eq. 32).
         tilt = self._correct_inclination(acc, dt) if acc is not None else None
         q6 = mul(s.q_inc, s.q_gyr)
         if tilt is not None and not self.flags.rest and s.t > p.startup_t:
-            self._learn_bias_in_motion(q6, tilt[0] / dt, tilt[1] / dt, dt)
+            # The correction, summed over BIAS_EVERY samples, teaches the bias (a 3 s loop needs no more).
+            cx, cy = s.tilt_sum
+            s.tilt_sum, s.tilt_dt, s.tilt_n = (cx + tilt[0], cy + tilt[1]), s.tilt_dt + dt, s.tilt_n + 1
+            if s.tilt_n == BIAS_EVERY:
+                (cx, cy), t = s.tilt_sum, s.tilt_dt
+                self._learn_bias_in_motion(cx / t, cy / t, t)
+                s.tilt_sum, s.tilt_dt, s.tilt_n = (0.0, 0.0), 0.0, 0
         # 3. Heading from the magnetometer, with disturbance rejection (VQF sec. 3.4).
         if mag is not None:
             self._correct_heading(q6, mag, dt)
+        self.flags.mag_unusable = s.mag_reason != ""
         s.q = normalize(mul(about_z(s.heading), q6))
         return s.q
 
     # ------------------------------------------------------------ rest and bias
 
     def _detect_rest(self, gyr: Vec, acc: Vec, dt: float) -> None:
-        """Rest when gyro and accelerometer stay near their low-passed values (VQF sec. 3.3)."""
+        """Rest when the low-passed gyro and accelerometer stay steady (VQF sec. 3.3, on
+        signals low-passed first so a tremor averages out); then the low-passed gyro is the bias."""
         s, p = self._state, self.params
-        rest = s.rest.update(gyr, acc, dt)
+        g = s.rest_gyr.step(gyr, dt)
+        rest = s.rest.update(g, s.rest_acc.step(acc, dt), dt)
         self.flags.rest = rest
-        gyr_lp = s.rest.gyr_lp
-        if rest and gyr_lp is not None:
-            # At rest the low-passed gyro is the bias (VQF sec. 3.3): follow it quickly.
-            k = min(1.0, dt / p.bias_tau_rest)
-            (bx, by, bz), (gx, gy, gz) = s.bias, gyr_lp
-            s.bias = self._clamp(bx + k * (gx - bx), by + k * (gy - by), bz + k * (gz - bz))
+        if rest:
+            r = p.bias_tau_rest / p.bias_tau_min / dt  # the rest measurement's noise, as the motion's is 1/dt
+            b = s.bias
+            for axis, h in enumerate(((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))):
+                self._observe_bias(h, g[axis] - b[axis], r)
+
+    def _forget_bias(self, dt: float) -> None:
+        """The bias's uncertainty grows back toward "unknown" (1 / bias_tau_min) over bias_forget_t.
+
+        P <- (1 - a) P + a P_max I, a = dt / T: a convex blend, so P stays a
+        covariance and never exceeds P_max, which bounds the gain (loop stability:
+        :class:`DefaultParams`). It plays the role of VQF's bias forgetting time
+        (sec. 3.3): the warm-up drift keeps changing what was learned.
+        """
+        s, p = self._state, self.params
+        a = dt / p.bias_forget_t
+        if a > 1.0:
+            a = 1.0
+        c, m = 1.0 - a, a / p.bias_tau_min
+        xx, xy, xz, yy, yz, zz = s.bias_p
+        s.bias_p = (c * xx + m, c * xy, c * xz, c * yy + m, c * yz, c * zz + m)
+
+    def _observe_bias(self, h: Vec, innovation: float, r: float) -> None:
+        """One scalar Kalman update of the bias: the measurement h . b, ``innovation`` its
+        measured minus predicted value (rad/s), ``r`` its noise in the units of ``bias_p``.
+
+        K = P h / (h' P h + r);  b <- b + K innovation;  P <- P - K (P h)'
+        (any Kalman filter text; VQF sec. 3.3 uses the same update).
+        """
+        s = self._state
+        xx, xy, xz, yy, yz, zz = s.bias_p
+        hx, hy, hz = h
+        px, py, pz = xx * hx + xy * hy + xz * hz, xy * hx + yy * hy + yz * hz, xz * hx + yz * hy + zz * hz
+        scale = 1.0 / (hx * px + hy * py + hz * pz + r)
+        kx, ky, kz = px * scale, py * scale, pz * scale
+        s.bias_p = (xx - kx * px, xy - kx * py, xz - kx * pz, yy - ky * py, yz - ky * pz, zz - kz * pz)
+        b = s.bias
+        s.bias = self._clamp(b[0] + kx * innovation, b[1] + ky * innovation, b[2] + kz * innovation)
 
     def _clamp(self, x: float, y: float, z: float) -> Vec:
         """The bias (x, y, z) limited to +-bias_max per axis."""
@@ -138,7 +264,15 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         is no gravity yet.
         """
         s = self._state
-        a_i = s.acc_lp.step(rotate(s.q_gyr, acc), dt)
+        a_i = rotate(s.q_gyr, acc)
+        if s.t <= self.params.startup_t:  # fast start: the plain mean, which a tremor does not tilt
+            s.acc_n += 1
+            (mx, my, mz), k = s.acc_mean, 1.0 / s.acc_n
+            a_i = s.acc_mean = (mx + k * (a_i[0] - mx), my + k * (a_i[1] - my), mz + k * (a_i[2] - mz))
+        else:
+            if not s.acc_lp.primed and s.acc_n:
+                s.acc_lp.step(s.acc_mean, dt)  # the low-pass starts settled at the start-up mean
+            a_i = s.acc_lp.step(a_i, dt)
         ax, ay, az = rotate(s.q_inc, a_i)
         n = math.sqrt(ax * ax + ay * ay + az * az)
         if n < 1e-6:
@@ -150,18 +284,40 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         s.q_inc = normalize(mul(from_rotvec(rx, ry, 0.0), s.q_inc))
         return rx, ry
 
-    def _learn_bias_in_motion(self, q6: Quat, cx: float, cy: float, dt: float) -> None:
-        """Integral action on the inclination correction rate (Mahony eq. 32).
+    def _learn_bias_in_motion(self, cx: float, cy: float, dt: float) -> None:
+        """The bias from the inclination correction rate (VQF sec. 3.3 "motion bias
+        estimation"; Mahony eq. 32 is the same idea as a fixed integral gain).
 
-        A constant bias b makes the strapdown frame turn by -R b per second; the
-        correction then turns it back at (cx, cy) ~ (R b) horizontally. Only the
-        horizontal part is observable from gravity. ``q6`` is the corrected
-        ``q_inc * q_gyr``, which takes (cx, cy, 0) back to the sensor frame.
+        A bias error e turns the strapdown frame I by R_IS e per second. The
+        accelerometer's low-pass in I (:meth:`_correct_inclination`) passes that
+        drift on through the same low-pass, so the correction rate in E is
+        c = -P R_EI LP(R_IS (b - b_est)), with P keeping x and y (only the
+        horizontal part is observable from gravity). So z = P R_EI LP(R_IS b_est) - c
+        measures P R_EI LP(R_IS) b: two scalar measurements of the bias, rows
+        H = P R_EI LP(R_IS). Low-passing the prediction as the correction was
+        (as VQF does) keeps the estimate from chasing the low-pass's delay. As
+        the arm turns, every sensor axis takes its turn at being horizontal.
         """
-        s, p = self._state, self.params
-        bx, by, bz = rotate_inverse(q6, (cx, cy, 0.0))
-        k = p.bias_ki * dt
-        s.bias = self._clamp(s.bias[0] - k * bx, s.bias[1] - k * by, s.bias[2] - k * bz)
+        s = self._state
+        w, x, y, z = s.q_gyr  # R_IS, by rows
+        m0 = s.bias_lp_r0.step((1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)), dt)
+        m1 = s.bias_lp_r1.step((2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)), dt)
+        m2 = s.bias_lp_r2.step((2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)), dt)
+        pb = s.bias_lp_rb.step(rotate(s.q_gyr, s.bias), dt)
+        w, x, y, z = s.q_inc  # rows 1 and 2 of R_EI
+        e0 = (1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y))
+        e1 = (2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x))
+        # The measurement's noise: 1 / dt is the unit of bias_p; fast turns add to it (a gyroscope
+        # scale error of s makes a turn at rate w look like a bias of s w).
+        gx, gy, gz = s.rest_gyr.y
+        bx, by, bz = s.bias
+        turn = ((gx - bx) ** 2 + (gy - by) ** 2 + (gz - bz) ** 2) / (self.params.bias_turn_rate ** 2)
+        r = (1.0 + turn) / dt
+        for (a0, a1, a2), c in ((e0, cx), (e1, cy)):
+            h = (a0 * m0[0] + a1 * m1[0] + a2 * m2[0], a0 * m0[1] + a1 * m1[1] + a2 * m2[1],
+                 a0 * m0[2] + a1 * m1[2] + a2 * m2[2])
+            b = s.bias
+            self._observe_bias(h, a0 * pb[0] + a1 * pb[1] + a2 * pb[2] - c - (h[0] * b[0] + h[1] * b[1] + h[2] * b[2]), r)
 
     # ------------------------------------------------------------ heading
 
@@ -172,7 +328,8 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         if norm < 1e-6:
             return
         dip = math.asin(max(-1.0, min(1.0, mz / norm)))
-        if not self._field_undisturbed(norm, dip, dt):
+        self._judge_field(q6, norm, dip, dt)
+        if s.mag_reason or not self._field_undisturbed(norm, dip, dt) or (s.t > p.startup_t and not s.mag_checked):
             self.flags.mag_rejected = True
             return
         # The horizontal field points atan2(mx, my) east of north (+y) in the 6D frame;
@@ -183,7 +340,6 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         if s.t <= p.startup_t:
             k = max(k, 1.0 / s.mag_samples)  # fast start: plain average of the first second
         s.heading = (s.heading + k * err + math.pi) % (2 * math.pi) - math.pi
-
 
     def _field_undisturbed(self, norm: float, dip: float, dt: float) -> bool:
         """Magnetic disturbance test on the field's norm and dip angle (VQF sec. 3.4)."""
@@ -200,6 +356,57 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
             s.mag_norm += k * (norm - s.mag_norm)
             s.mag_dip += k * (dip - s.mag_dip)
         return ok
+
+    def _judge_field(self, q6: Quat, norm: float, dip: float, dt: float) -> None:
+        """Is the field consistent? Its norm and dip over a window, while the board turns.
+
+        The Earth's field has one norm and one dip wherever the board points
+        (VQF sec. 3.4's premise). A hard-iron offset h adds R h, a soft-iron
+        distortion E adds E m: both change the norm and dip as the board turns,
+        as does a disturbance that varies with position. Exponentially weighted
+        means and variances over ``mag_window_t`` (D. Finch, "Incremental
+        calculation of weighted mean and variance", 2009, sec. 9) give their
+        spread; a spread beyond the thresholds switches the field off. It is
+        switched on again after ``mag_on_t`` seconds of a consistent field while
+        the board turned (the spread of world y and z seen from the sensor over
+        the window, 2 - |mean y|^2 - |mean z|^2, beyond ``mag_turn_th``): a board
+        held still shows any field as consistent.
+        """
+        s, p = self._state, self.params
+        if s.t <= p.startup_t:
+            return  # the inclination is still settling: its dip would read as spread
+        w, x, y, z = q6
+        wy = (2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x))  # row 2 of R
+        wz = (2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y))  # row 3 of R
+        if s.mag_t == 0.0:
+            s.win_norm, s.win_dip, s.win_y, s.win_z = norm, dip, wy, wz
+        s.mag_t += dt
+        a = dt / p.mag_window_t
+        if a > 1.0:
+            a = 1.0
+        dn, dd = norm - s.win_norm, dip - s.win_dip
+        s.win_norm += a * dn
+        s.win_dip += a * dd
+        s.win_norm_var = (1.0 - a) * (s.win_norm_var + a * dn * dn)
+        s.win_dip_var = (1.0 - a) * (s.win_dip_var + a * dd * dd)
+        (y0, y1, y2), (z0, z1, z2) = s.win_y, s.win_z
+        s.win_y = (y0 + a * (wy[0] - y0), y1 + a * (wy[1] - y1), y2 + a * (wy[2] - y2))
+        s.win_z = (z0 + a * (wz[0] - z0), z1 + a * (wz[1] - z1), z2 + a * (wz[2] - z2))
+        if s.mag_t < p.mag_judge_t:
+            return  # too little seen yet (a part-filled window's variance reads low: no false alarm)
+        th_norm = p.mag_norm_sd_th * s.win_norm
+        reason = (MAG_STRENGTH if s.win_norm_var > th_norm * th_norm else
+                  MAG_DIP if s.win_dip_var > p.mag_dip_sd_th * p.mag_dip_sd_th else "")
+        if reason:
+            s.mag_reason, s.mag_good_t, s.mag_checked = reason, 0.0, False
+        elif not s.mag_checked:
+            (y0, y1, y2), (z0, z1, z2) = s.win_y, s.win_z
+            turned = 2.0 - (y0 * y0 + y1 * y1 + y2 * y2) - (z0 * z0 + z1 * z1 + z2 * z2)
+            # One unbroken spell of turning (the first check, of a field never found bad, needs none).
+            s.mag_good_t = s.mag_good_t + dt if turned > p.mag_turn_th or not s.mag_reason else 0.0
+            if s.mag_good_t >= p.mag_on_t:  # consistent long enough while turning: used, the window its reference
+                s.mag_reason, s.mag_good_t, s.mag_checked = "", 0.0, True
+                s.mag_norm, s.mag_dip = s.win_norm, s.win_dip
 
 
 FILTER_CLASS = DefaultFilter

@@ -1,0 +1,262 @@
+"""The default filter on a real player with a real board (issue 12): a gyro bias learned in play
+(a tremor, sway, no clean hold, a warming board) and a magnetometer that never makes the heading
+worse than none (hard iron, soft iron, an indoor disturbance), on simulated truth.
+
+``python -m tests.tracker.test_fusion_default_robust`` prints the figures (heading error by time
+for no magnetometer, a good one and bad ones; the bias's convergence from 5 deg/s).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from functools import lru_cache
+
+import numpy as np
+import pytest
+
+from tracker import quat as Q
+from tracker.fusion import make
+from tracker.fusion.default import DefaultFilter
+from tracker.sim import MagneticErrors, Motion, Simulator, arm_chain, mpu9250
+
+RATE = 200.0
+DEG = math.pi / 180
+BIAS0_DPS = np.array([2.9, -2.9, 2.9])  # 5 deg/s in all: the MPU-9250's zero-rate offset bound
+WARMUP_DPS, WARMUP_TAU_S = 4.0, 150.0  # the issue's worst warm-up, the sim's thermal time constant
+
+
+def play(seed: int, duration: float, tremor_deg: float = 0.5, tremor_hz: float = 8.0,
+         sway_deg: float = 2.0) -> Motion:
+    """A player at play: the upper arm moves to a random pose (yaw, raise, twist) in 0.4-1.2 s
+    (minimum jerk), holds it 0.3-1.5 s, and so on; a tremor about the arm's two swing axes
+    and a slow sway (0.1-1 Hz) about all three ride on top. The elbow stays straight."""
+    rng = np.random.default_rng(seed)
+    times, poses, t = [0.0], [np.zeros(3)], 0.0
+    while t < duration + 2.0:
+        move, hold = rng.uniform(0.4, 1.2), rng.uniform(0.3, 1.5)
+        target = np.array([rng.uniform(-0.6, 0.6), rng.uniform(0.0, 1.6), rng.uniform(-0.5, 0.5)])
+        times += [t + move, t + move + hold]
+        poses += [target, target]
+        t += move + hold
+    knots, targets = np.array(times), np.array(poses)
+    sway_hz, sway_phase = rng.uniform(0.1, 1.0, 3), rng.uniform(0, 2 * np.pi, 3)
+    tremor_phase = rng.uniform(0, 2 * np.pi, 2)
+
+    def root(tt: np.ndarray) -> np.ndarray:
+        i = np.clip(np.searchsorted(knots, tt, side="right") - 1, 0, len(knots) - 2)
+        s = np.clip((tt - knots[i]) / (knots[i + 1] - knots[i]), 0.0, 1.0)
+        p = targets[i] + (targets[i + 1] - targets[i]) * (s**3 * (10 - 15 * s + 6 * s * s))[:, None]
+        q = Q.multiply(Q.multiply(Q.from_axis_angle((0, 0, 1), p[:, 0]), Q.from_axis_angle((0, 1, 0), p[:, 1])),
+                       Q.from_axis_angle((0, 0, 1), p[:, 2]))
+        sway = sway_deg * DEG * np.sin(2 * np.pi * sway_hz * tt[:, None] + sway_phase)
+        tremor = tremor_deg * DEG * np.sin(2 * np.pi * tremor_hz * tt[:, None] + tremor_phase)
+        swing = np.stack([tremor[:, 0], tremor[:, 1], np.zeros_like(tt)], axis=1)
+        return Q.multiply(Q.multiply(q, Q.from_rotvec(sway)), Q.from_rotvec(swing))
+
+    return Motion(root, lambda tt: np.zeros((len(tt), 1)))
+
+
+def gyro_bias(t: np.ndarray, warmup_dps: float) -> np.ndarray:
+    """The true bias (rad/s): BIAS0 plus a warm-up of ``warmup_dps`` over 600 s, in all axes alike:
+    w(t) = W (1 - exp(-t / tau)) / (1 - exp(-600 / tau)) (first-order heating)."""
+    w = warmup_dps * (1 - np.exp(-t / WARMUP_TAU_S)) / (1 - math.exp(-600.0 / WARMUP_TAU_S))
+    return np.radians(BIAS0_DPS[None, :] + w[:, None] / math.sqrt(3))
+
+
+@lru_cache(maxsize=None)
+def session(duration: float, warmup_dps: float, magnetic: MagneticErrors | None, seed: int = 0):
+    """(measured gyro with the bias, acc, mag or None, true q_WS, true bias) of a simulated session."""
+    errors = mpu9250(offset=False)
+    if magnetic is not None:
+        errors = dataclasses.replace(errors, magnetic=magnetic)
+    d = Simulator(arm_chain(), play(seed, duration), errors, seed=seed).simulate(duration, RATE)
+    bias = gyro_bias(d.t, warmup_dps)
+    mag = d.mag[:, 0] if magnetic is not None else None
+    return d.gyr[:, 0] + bias, d.acc[:, 0], mag, d.truth.q_sensors[:, 0], bias
+
+
+REF = slice(int(20 * RATE), int(25 * RATE))  # where the heading's zero is taken
+
+
+def heading_error_deg(q: np.ndarray, truth: np.ndarray, ref: slice = REF):
+    """Signed heading error (deg) less its circular mean over ``ref``: the player's recentring
+    after the wearing calibration (a 6D filter's heading is arbitrary). At 20-25 s a magnetometer
+    has had its first check (``mag_on_t`` after the start), so a good one's heading is in use."""
+    e = Q.multiply(q, Q.conjugate(truth))
+    signed = 2 * np.arctan2(e[:, 3], e[:, 0])
+    offset = math.atan2(np.sin(signed[ref]).mean(), np.cos(signed[ref]).mean()) if len(signed[ref]) else 0.0
+    return np.degrees((signed - offset + np.pi) % (2 * np.pi) - np.pi)
+
+
+def run(gyr, acc, mag, **params) -> tuple[np.ndarray, np.ndarray, np.ndarray, DefaultFilter]:
+    """Quaternions, the bias estimate (rad/s) and the mag_unusable flag per sample, and the filter."""
+    f = make("default", **params)
+    assert isinstance(f, DefaultFilter)
+    n = len(gyr)
+    q, bias, off = np.empty((n, 4)), np.empty((n, 3)), np.zeros(n, bool)
+    g, a = gyr.tolist(), acc.tolist()
+    m = mag.tolist() if mag is not None else [None] * n
+    for i in range(n):
+        q[i] = f.update(g[i], a[i], m[i], 1 / RATE)
+        bias[i] = f.get_state().bias if i % 20 == 0 else bias[i - 1]
+        off[i] = f.flags.mag_unusable
+    return q, bias, off, f
+
+
+# ----------------------------------------------------------------- the bias
+
+
+def test_bias_converges_from_5_dps_in_play_with_tremor_and_sway():
+    gyr, acc, _, _, bias = session(120.0, 0.0, None)
+    _, est, _, f = run(gyr, acc, None)
+    err = np.degrees(np.linalg.norm(est - bias, axis=1))
+    assert err[0] == pytest.approx(5.0, abs=0.05)
+    # No sample here is at rest (the arm never holds 1.5 s): all of it is learned in motion.
+    assert err[int(60 * RATE):].max() < 0.5, err[int(60 * RATE):].max()
+    assert err[-1] < 0.25, err[-1]
+    # The fixed slow integral gain (Mahony's k_I = 0.01 / s, the filter before) is still far off.
+    _, slow, _, _ = run(gyr, acc, None, bias_tau_min=100.0, bias_forget_t=1e9)
+    assert np.degrees(np.linalg.norm(slow[-1] - bias[-1])) > 1.0
+
+
+def test_warm_up_drift_is_tracked_and_heading_holds_without_a_magnetometer():
+    gyr, acc, _, truth, bias = session(600.0, WARMUP_DPS, None)
+    q, est, _, _ = run(gyr, acc, None)
+    err = np.degrees(np.linalg.norm(est - bias, axis=1))
+    late = slice(int(300 * RATE), None)
+    # The bias moved by 2.4 deg/s between 60 s and 600 s; the estimate follows within 0.2.
+    assert np.degrees(np.linalg.norm(bias[-1] - bias[int(60 * RATE)])) > 2.0
+    assert err[late].max() < 0.2, err[late].max()
+    heading = heading_error_deg(q, truth)
+    assert np.ptp(heading[late]) < 15.0, np.ptp(heading[late])
+    # The filter before (slow fixed gain): the heading runs away over the same 5 minutes.
+    q_slow, _, _, _ = run(gyr, acc, None, bias_tau_min=100.0, bias_forget_t=1e9)
+    assert np.ptp(heading_error_deg(q_slow, truth)[late]) > 2 * np.ptp(heading[late])
+
+
+def test_a_tremor_at_rest_still_gives_the_bias_at_rest():
+    # A long rest with a 1 deg tremor at 5 Hz (31 deg/s on the gyro, VQF's raw 2 deg/s test fails):
+    # the low-passed rest test finds it, and the low-passed gyro gives all three axes, the vertical too.
+    n = int(30 * RATE)
+    t = np.arange(n) / RATE
+    amp = 1.0 * DEG * 2 * np.pi * 5.0  # the rate amplitude 2 pi f A
+    bias = np.radians([1.0, -2.0, 3.0])
+    rng = np.random.default_rng(4)
+    gyr = bias + np.outer(amp * np.cos(2 * np.pi * 5.0 * t), [1.0, 0.6, 0.0]) + rng.normal(0, 0.002, (n, 3))
+    acc = np.tile([0.0, 0.0, 9.81], (n, 1)) + rng.normal(0, 0.02, (n, 3))
+    f = make("default")
+    rest = []
+    for i in range(n):
+        f.update(gyr[i], acc[i], None, 1 / RATE)
+        rest.append(f.flags.rest)
+    assert np.mean(rest[-int(20 * RATE):]) > 0.95
+    np.testing.assert_allclose(f.get_state().bias, bias, atol=math.radians(0.05))
+
+
+# ----------------------------------------------------------------- the magnetometer
+
+BAD = {"hard iron 100 uT": MagneticErrors(hard_iron_ut=100.0),
+       "soft iron 20 %": MagneticErrors(soft_iron=0.2),
+       "disturbance 40 uT": MagneticErrors(disturbance_ut=40.0),
+       "typical board (30 uT, 5 %, 5 uT)": MagneticErrors(30.0, 0.05, 5.0)}
+MAG_SECONDS = 300.0
+
+
+@lru_cache(maxsize=None)
+def gyro_only_heading() -> np.ndarray:
+    gyr, acc, _, truth, _ = session(MAG_SECONDS, WARMUP_DPS, None)
+    return np.abs(heading_error_deg(run(gyr, acc, None)[0], truth))
+
+
+def quarters(err: np.ndarray) -> np.ndarray:
+    """Median |heading error| in each quarter of the session after the recentring."""
+    return np.array([np.median(part) for part in np.array_split(np.abs(err[REF.stop:]), 4)])
+
+
+def test_a_good_magnetometer_is_used_and_beats_the_gyroscope():
+    gyr, acc, mag, truth, _ = session(MAG_SECONDS, WARMUP_DPS, MagneticErrors())
+    q, _, off, f = run(gyr, acc, mag)
+    assert not off.any() and f.status == "magnetometer on"
+    # A magnetometer gives the heading itself: its error needs no recentring (the ref slice is empty).
+    good, alone = quarters(heading_error_deg(q, truth, slice(0, 0))), quarters(gyro_only_heading())
+    assert good.max() < 6.0 and good[-1] < 2.0, good
+    assert good[-1] < alone[-1] / 5, (good, alone)
+
+
+@pytest.mark.parametrize("name", list(BAD))
+def test_a_bad_magnetometer_is_found_and_never_worse_than_none(name):
+    gyr, acc, mag, truth, _ = session(MAG_SECONDS, WARMUP_DPS, BAD[name])
+    q, _, off, f = run(gyr, acc, mag)
+    err, alone = np.abs(heading_error_deg(q, truth)), gyro_only_heading()
+    assert off[int(15 * RATE):].mean() > 0.8 and f.flags.mag_unusable
+    assert f.status.startswith("magnetometer off: field strength changes as the board moves")
+    assert np.all(quarters(err) <= quarters(alone) + 1.0), (quarters(err), quarters(alone))
+    assert err[REF.stop:].max() <= alone[REF.stop:].max() + 2.0
+
+
+def turning(seconds: float, hard_iron: np.ndarray, rate: float = 0.5):
+    """A level board turning about its x axis at ``rate`` rad/s (exact readings), and its field
+    with a hard-iron offset."""
+    t = np.arange(int(seconds * RATE)) / RATE
+    angle = rate * t
+    c, s = np.cos(angle), np.sin(angle)
+    up = np.stack([np.zeros_like(t), s, c], axis=1)  # R^T e_z for R = Rx(angle)
+    field = np.array([0.0, 20.0, -40.0])
+    mag = np.stack([np.full_like(t, field[0]), c * field[1] + s * field[2], -s * field[1] + c * field[2]], axis=1)
+    return np.tile([rate, 0.0, 0.0], (len(t), 1)), 9.81 * up, mag + hard_iron
+
+
+def test_the_field_comes_back_only_after_a_consistent_spell_of_turning():
+    p = DefaultFilter.Params()
+    f = make("default")
+    gyr, acc, mag = turning(20.0, np.array([30.0, 20.0, 0.0]))
+    for i in range(len(gyr)):
+        f.update(gyr[i], acc[i], mag[i], 1 / RATE)
+    assert f.flags.mag_unusable and f.status.startswith("magnetometer off")
+    # Calibrated from now on (the same board after a calibration): held still, it stays off ...
+    still_gyr, still_acc, still_mag = turning(2 * p.mag_on_t, np.zeros(3), rate=0.0)
+    for i in range(len(still_gyr)):
+        f.update(still_gyr[i], still_acc[i], still_mag[i], 1 / RATE)
+    assert f.flags.mag_unusable
+    # ... and turning, it comes back once the window forgot the bad field and mag_on_t passed.
+    gyr, acc, mag = turning(4 * p.mag_on_t, np.zeros(3))
+    back = None
+    for i in range(len(gyr)):
+        f.update(gyr[i], acc[i], mag[i], 1 / RATE)
+        if back is None and not f.flags.mag_unusable:
+            back = i / RATE
+    assert back is not None and back >= p.mag_on_t, back
+    assert f.status == "magnetometer on"
+
+
+def test_status_without_a_magnetometer():
+    f = make("default")
+    f.update((0.0, 0.0, 0.0), (0.0, 0.0, 9.81), None, 0.005)
+    assert f.status == "no magnetometer" and not f.flags.mag_unusable
+
+
+# ----------------------------------------------------------------- figures
+
+
+def figures() -> None:
+    """Heading error (deg, median |error| per minute after the recentring; the good magnetometer's
+    absolute) and the bias's convergence (printed)."""
+    seconds = 600.0
+    rows = {"gyro only": None, "good magnetometer": MagneticErrors(), **BAD}
+    for name, magnetic in rows.items():
+        gyr, acc, mag, truth, bias = session(seconds, WARMUP_DPS, magnetic)
+        q, est, off, f = run(gyr, acc, mag)
+        err = np.abs(heading_error_deg(q, truth, slice(0, 0) if name == "good magnetometer" else REF))
+        minutes = [float(np.median(part)) for part in np.array_split(err[REF.stop:], 10)]
+        print(f"{name:34s} heading |err| median by minute: {' '.join(f'{m:5.1f}' for m in minutes)}"
+              f"   max {err[REF.stop:].max():5.1f}   off {100 * off.mean():3.0f}%   {f.status}")
+    gyr, acc, _, _, bias = session(120.0, 0.0, None)
+    err = np.degrees(np.linalg.norm(run(gyr, acc, None)[1] - bias, axis=1))
+    for level in (1.0, 0.5, 0.2, 0.1):
+        after = np.flatnonzero(err > level)
+        print(f"bias error from 5 deg/s stays below {level} deg/s after {(after[-1] + 1) / RATE:5.1f} s")
+
+
+if __name__ == "__main__":
+    figures()
