@@ -35,10 +35,11 @@ spin time over ``charge_s``, capped at 1, and a spin shorter than
 ``min_spin_s`` launches nothing.
 
 The wave. A launch is a wave across the hysteresis band: from the last
-sample of the spin still held flexed (the "release": above flex-on less
-``hold_sag`` of the band, see below) to the first of the samples below
-flex-off that confirm the launch (the "crossing"), in at most
-``max_straighten_s`` (22.5 deg in 0.3 s by default: faster than 75 deg/s). A slower straightening is a
+sample of the spin still held flexed (the "release": above flex-on, or
+sagging below it no faster than the sensor creeps, see below) to the first
+of the samples below flex-off that confirm the launch (the "crossing"), in
+at most ``max_straighten_s`` (22.5 deg in 0.3 s from 47.5 deg, 30 deg in
+0.4 s from flex-on: faster than 75 deg/s). A slower straightening is a
 relaxation, not a throw: the ball stops spinning and stays (``LOADING``, a
 "load" event). So a player who relaxes into the band (say to 40 deg) and
 waves from there keeps the ball; flexing above flex-on again and waving
@@ -49,10 +50,13 @@ straight while the elbow is held bent (issue 12: up to 12 % of the bend,
 time constant ~4 s; Saggio et al., "Resistive flex sensors: a survey",
 Smart Mater. Struct. 25 (2016) 013001, sec. 5, on creep and hysteresis), so
 a spin held just past flex-on may read a few degrees below it after a few
-seconds although the player never relaxed. ``hold_sag`` is that
-allowance, a share of the band between the thresholds: a spin still counts
-as held down to flex-on less 7.5 deg by default (12 % of 55 deg is 6.6), and
-the relaxation rule times the wave from there. The
+seconds although the player never relaxed. A spin therefore still counts
+as held while its flex sags below flex-on no faster than ``creep_dps`` since
+the last sample above flex-on (12 % of the 127 deg span over a 4 s time
+constant is at most 3.8 deg/s) and no deeper than ``hold_sag`` of the band
+(7.5 deg by default; 12 % of 55 deg is 6.6): the relaxation rule times the
+wave from the last such sample. A player who relaxes into the band, or
+whose forearm wobbles there, moves faster than creep and is not held. The
 sensor's hysteresis (a play of up to 12 % of its 127 deg span, +-7.6 deg)
 only shifts the reading toward where the elbow came from: a straightened
 elbow reads at most that much bent (below flex-off for any straightening to
@@ -151,10 +155,10 @@ class GestureSettings:
     Spin:
       ``min_spin_s`` 0.15: a shorter spin is no throw (the ball stays, LOADING).
       ``charge_s`` 1.2: the spin time that gives a full charge (charge = spin / charge_s, capped at 1).
-      ``hold_sag`` 0.25: how far below flex-on a spin still counts as held
-      (the release, module doc "The sensor's own drift"), as a share of the
-      band ``flex_on_deg - flex_off_deg`` (7.5 deg of the default 30); 0 to
-      less than 1.
+      ``hold_sag`` 0.25 and ``creep_dps`` 4: how far (a share of the band
+      ``flex_on_deg - flex_off_deg``, 7.5 deg of the default 30; 0 to less
+      than 1) and how fast (deg/s) a spin may sag below flex-on and still
+      count as held (the release, module doc "The sensor's own drift").
       ``max_straighten_s`` 0.3: the wave from the release to below flex-off
       must take at most this to launch; slower is a relaxation and keeps the
       ball (a quick 90 deg wave takes 0.1-0.3 s, so its 22.5 deg from 47.5 to
@@ -185,6 +189,7 @@ class GestureSettings:
     min_spin_s: float = 0.15
     charge_s: float = 1.2
     hold_sag: float = 0.25
+    creep_dps: float = 4.0
     max_straighten_s: float = 0.3
     aim_lookback_s: float = 0.25
     aim_tolerance_deg: float = 8.0
@@ -217,6 +222,8 @@ class GestureSettings:
         if self.flex_off_deg >= self.flex_on_deg:
             raise ValueError(f"flex_off_deg ({self.flex_off_deg}) must be below flex_on_deg "
                              f"({self.flex_on_deg}): the gap between them is the hysteresis that stops chatter")
+        if not 0.0 <= self.creep_dps < math.inf:
+            raise ValueError(f"creep_dps must be a speed of 0 deg/s or more, not {self.creep_dps!r}")
         if not 0.0 <= self.hold_sag < 1.0:
             raise ValueError(f"hold_sag must be a share of the flex band from 0 to less than 1, "
                              f"not {self.hold_sag!r}")
@@ -294,7 +301,8 @@ class GestureMemory:
     pointing: Vec3 = DOWN  # the last usable sample's pointing
     rise_start: float = -math.inf  # when the ball began to float up
     spin_start: float = 0.0  # the onset of the flex that started the spin
-    release: Sample | None = None  # the last sample of this spin held flexed (above hold_deg)
+    flexed_last: Sample | None = None  # the last sample of this spin above flex-on
+    release: Sample | None = None  # the last sample of this spin held flexed (module doc, "The wave")
     raised: Dwell = field(default_factory=Dwell)
     lowered: Dwell = field(default_factory=Dwell)
     flexed: Dwell = field(default_factory=Dwell)
@@ -427,15 +435,15 @@ class GestureMachine:
             return []
         if m.lowered.step(sample.elevation < s.lower_deg, sample.t, s.lower_dwell_s):
             return [self._enter(GestureState.IDLE, "idle")]
-        if m.state is GestureState.SPINNING and sample.flex > s.hold_deg:
-            m.release = sample
+        if m.state is GestureState.SPINNING:
+            self._hold(sample)
         if m.lowered.since is not None:  # the arm is on its way down: hold the forearm
             m.flexed.since = m.straight.since = None
             return []
         if m.state is GestureState.SPINNING:
             return self._spinning(sample)
         if m.flexed.step(sample.flex > s.flex_on_deg, sample.t, s.flex_dwell_s):
-            m.spin_start, m.release = m.flexed.since, sample  # type: ignore[assignment]
+            m.spin_start, m.release, m.flexed_last = m.flexed.since, sample, sample  # type: ignore[assignment]
             kind: EventKind = "spin" if m.state is GestureState.LOADING else "reload"
             return [self._enter(GestureState.SPINNING, kind)]
         return []
@@ -458,6 +466,16 @@ class GestureMachine:
         m.clear_dwells()
         assert m.t is not None  # only called on a usable sample
         return GestureEvent(kind, m.t, direction if direction is not None else m.pointing, charge)
+
+    def _hold(self, sample: Sample) -> None:
+        """Move the release to ``sample`` if the spin is still held there (module doc, "The wave")."""
+        m, s = self._memory, self._settings
+        if sample.flex > s.flex_on_deg:
+            m.release = m.flexed_last = sample
+            return
+        top = m.flexed_last
+        if top is not None and sample.flex > s.hold_deg and sample.flex >= top.flex - s.creep_dps * (sample.t - top.t):
+            m.release = sample
 
     def _spinning(self, sample: Sample) -> list[GestureEvent]:
         m, s = self._memory, self._settings

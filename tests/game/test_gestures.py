@@ -290,6 +290,17 @@ def test_waving_from_inside_the_hysteresis_band_is_a_relaxation():
     assert kinds(events) == ["load"]
 
 
+@pytest.mark.parametrize("creep_dps, expected", [(GestureSettings().creep_dps, "load"), (1000.0, "launch")])
+def test_wobbling_in_the_band_after_a_spin_is_no_hold(creep_dps, expected):
+    # relax from 90 to 50 deg and rub there (+-5 deg at 4 Hz) for 1 s, then drop the elbow in 0.4 s: the
+    # wobble's tops at 55 and 50 are within hold_sag of flex-on but come faster than a sensor creeps
+    machine, keys = spinning_machine(settings=GestureSettings(creep_dps=creep_dps))
+    states = continue_from(keys, [(2.2, 90, 0, 50), (3.2, 90, 0, 50), (3.6, 90, 0, 5), (4.0, 90, 0, 5)])
+    states = [replace(a, flex_deg=a.flex_deg + (5 * math.sin(2 * math.pi * 4 * (a.t - 2.2)) if 2.2 <= a.t <= 3.2
+                                                else 0.0)) for a in states]
+    assert kinds(run(machine, states)) == [expected]
+
+
 def samples(flexes, dt=0.01):
     return [Sample(i * dt, 90.0, f, (0.0, 1.0, 0.0)) for i, f in enumerate(flexes)]
 
@@ -485,6 +496,8 @@ def test_event_sequences_are_always_walks_of_the_state_machine():
     ({"rise_s": True}, "rise_s must be a number"),
     ({"hold_sag": 1.0}, "hold_sag must be a share of the flex band from 0 to less than 1"),
     ({"hold_sag": -0.1}, "hold_sag must be a share"),
+    ({"creep_dps": -1.0}, "creep_dps must be a speed of 0 deg/s or more"),
+    ({"creep_dps": math.inf}, "creep_dps must be a speed"),
     ({"wave_speed_dps": 0.0}, "wave_speed_dps must be a speed of more than 0 deg/s"),
     ({"wave_window_s": 0.0}, "wave_window_s must be a time of more than 0 s"),
     ({"wave_window_s": 2.0}, r"history_s \(1.0\) must be at least wave_window_s \(2.0\)"),
