@@ -65,10 +65,11 @@ MAG_DIP = "field direction changes as the board moves (uncalibrated or disturbed
 class DefaultParams:
     """Settings of the default filter (times in seconds, thresholds in SI units).
 
-    Bias: the MPU-9250's zero-rate offset is within +-5 deg/s at power-on
-    (PS-MPU-9250A-01 rev. 1.1, sec. 3.1) and drifts by up to 4 deg/s more as the
-    board warms over its first minutes (EnergyBall issue 12, from the data
-    sheet's zero-rate output versus temperature), hence ``bias_max``.
+    Bias: the MPU-9250's zero-rate offset is within +-5 deg/s at 25 degC and
+    moves by up to +-30 deg/s over its temperature range (PS-MPU-9250A-01 rev.
+    1.1, table 1; a player profile's gyro_bias_dps allows 30), and drifts by up
+    to 4 deg/s more as the board warms over its first minutes, hence
+    ``bias_max`` of 35 deg/s, the start-up hold's own bound.
     ``bias_tau_min`` is the fastest the motion estimate may follow: the
     correction it learns from comes through the accelerometer's low-pass of
     ``tau_acc``, and an integral loop around a second-order low-pass of
@@ -79,17 +80,20 @@ class DefaultParams:
     """
 
     tau_acc: float = 3.0  # low-pass time constant of the accelerometer in frame I (VQF sec. 3.2)
-    tau_mag: float = 20.0  # time constant of the heading correction (VQF sec. 3.4 uses 9 s)
+    tau_mag: float = 15.0  # heading correction time constant (VQF sec. 3.4: 9 s; 15 keeps BROAD 9D under VQF)
     rest_lp_tau: float = 1.0  # the rest test low-passes gyro and accelerometer first (VQF sec. 3.3)
     rest_gyr_th: float = math.radians(0.5)  # rest: the low-passed gyro varies less than this (rad/s)
     rest_acc_th: float = 0.2  # rest: the low-passed accelerometer varies less than this (m/s^2)
     rest_min_t: float = 1.5  # rest: held this long (VQF sec. 3.3)
+    rest_max_rate: float = math.radians(5.0)  # rest: the low-passed bias-corrected rate below this on
+    # every axis (rad/s): a slow steady turn is no rest; 5 deg/s, the MPU-9250's zero-rate tolerance,
+    # leaves room for a bias not yet learned
     rest_tau: float = 0.5  # low-pass time constant of the rest detector's signals (VQF sec. 3.3)
     bias_tau_min: float = 3.0  # the bias estimate's fastest time constant in motion, s
     bias_tau_rest: float = 1.0  # its time constant at rest while the bias is least known, s
     bias_turn_rate: float = 0.25  # turning this fast (rad/s, low-passed) halves what motion tells of the bias
     bias_forget_t: float = 20.0  # a bias direction nothing observes is unknown again after about this, s
-    bias_max: float = math.radians(10.0)  # |bias| limit per axis: power-on offset plus warm-up
+    bias_max: float = math.radians(35.0)  # |bias| limit per axis: zero-rate output over temperature
     mag_norm_th: float = 0.1  # field norm deviating by more than this fraction: disturbed
     mag_dip_th: float = math.radians(10.0)  # dip angle deviating by more than this: disturbed
     mag_ref_tau: float = 20.0  # how fast the undisturbed field reference (norm, dip) adapts
@@ -152,8 +156,8 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
 
     def _initial_state(self) -> DefaultState:
         p = self.params
-        # The rest detector is fed the raw rate, so the low-passed rate may be as large as the bias can be.
-        rest = RestDetector(RestParams(p.rest_gyr_th, p.rest_acc_th, 2 * p.bias_max, p.rest_min_t, p.rest_tau))
+        # The rest detector is fed the bias-corrected rate: a steady turn is no rest, whatever the bias.
+        rest = RestDetector(RestParams(p.rest_gyr_th, p.rest_acc_th, p.rest_max_rate, p.rest_min_t, p.rest_tau))
         k = 1.0 / p.bias_tau_min
         return DefaultState(LowPass2(p.tau_acc), LowPass2(p.rest_lp_tau), LowPass2(p.rest_lp_tau), rest,
                             (k, 0.0, 0.0, k, 0.0, k), LowPass2(p.tau_acc), LowPass2(p.tau_acc),
@@ -206,11 +210,11 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         signals low-passed first so a tremor averages out); then the low-passed gyro is the bias."""
         s, p = self._state, self.params
         g = s.rest_gyr.step(gyr, dt)
-        rest = s.rest.update(g, s.rest_acc.step(acc, dt), dt)
+        b = s.bias
+        rest = s.rest.update((g[0] - b[0], g[1] - b[1], g[2] - b[2]), s.rest_acc.step(acc, dt), dt)
         self.flags.rest = rest
         if rest:
             r = p.bias_tau_rest / p.bias_tau_min / dt  # the rest measurement's noise, as the motion's is 1/dt
-            b = s.bias
             for axis, h in enumerate(((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))):
                 self._observe_bias(h, g[axis] - b[axis], r)
 
@@ -339,7 +343,25 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         k = dt / p.tau_mag
         if s.t <= p.startup_t:
             k = max(k, 1.0 / s.mag_samples)  # fast start: plain average of the first second
+        else:
+            self._learn_bias_from_heading(q6, k * err / dt, dt)
         s.heading = (s.heading + k * err + math.pi) % (2 * math.pi) - math.pi
+
+    def _learn_bias_from_heading(self, q6: Quat, c: float, dt: float) -> None:
+        """The bias about the vertical from the heading correction rate ``c`` (rad/s): the
+        magnetometer's share of Mahony's integral term (eq. 32), which gravity cannot give.
+
+        A bias error e turns the heading at (R_WS e)_z per second; the correction
+        turns it back, so c measures -h . e with h = R_WS^T z, world z in the sensor
+        frame. The heading follows the field with time constant ``tau_mag``, so this
+        measurement counts ``tau_mag / bias_tau_min`` times less than the
+        inclination's: with the Kalman gain bounded by 1 / bias_tau_min, the loop of
+        heading and bias is then damped (zeta about 0.5).
+        """
+        p = self.params
+        w, x, y, z = q6
+        h = (2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y))
+        self._observe_bias(h, -c, p.tau_mag / p.bias_tau_min / dt)
 
     def _field_undisturbed(self, norm: float, dip: float, dt: float) -> bool:
         """Magnetic disturbance test on the field's norm and dip angle (VQF sec. 3.4)."""
