@@ -38,8 +38,9 @@ The wave. A launch is a wave across the hysteresis band: from the last
 sample of the spin still held flexed (the "release": above flex-on, or
 sagging below it no faster than the sensor creeps, see below) to the first
 of the samples below flex-off that confirm the launch (the "crossing"), in
-at most ``max_straighten_s`` (22.5 deg in 0.3 s from 47.5 deg, 30 deg in
-0.4 s from flex-on: faster than 75 deg/s). A slower straightening is a
+at most ``max_straighten_s`` (30 deg from flex-on in 0.4 s by default:
+faster than 75 deg/s; from a creep-sagged hold at most 7.5 deg less). A
+slower straightening is a
 relaxation, not a throw: the ball stops spinning and stays (``LOADING``, a
 "load" event). So a player who relaxes into the band (say to 40 deg) and
 waves from there keeps the ball; flexing above flex-on again and waving
@@ -159,10 +160,10 @@ class GestureSettings:
       ``flex_on_deg - flex_off_deg``, 7.5 deg of the default 30; 0 to less
       than 1) and how fast (deg/s) a spin may sag below flex-on and still
       count as held (the release, module doc "The sensor's own drift").
-      ``max_straighten_s`` 0.3: the wave from the release to below flex-off
+      ``max_straighten_s`` 0.4: the wave from the release to below flex-off
       must take at most this to launch; slower is a relaxation and keeps the
-      ball (a quick 90 deg wave takes 0.1-0.3 s, so its 22.5 deg from 47.5 to
-      25 deg 0.02-0.08 s; letting a 90 deg flex sag over 1.2 s or more is no throw).
+      ball (a quick 90 deg wave takes 0.1-0.3 s, so its 30 deg band 0.03-0.1 s;
+      letting a 90 deg flex sag over 1.2 s or more is no throw).
       ``math.inf`` turns the check off (every straightening then launches).
     Aim:
       ``aim_lookback_s`` 0.25: how far before the release the start of the
@@ -190,7 +191,7 @@ class GestureSettings:
     charge_s: float = 1.2
     hold_sag: float = 0.25
     creep_dps: float = 4.0
-    max_straighten_s: float = 0.3
+    max_straighten_s: float = 0.4
     aim_lookback_s: float = 0.25
     aim_tolerance_deg: float = 8.0
     history_s: float = 1.0
