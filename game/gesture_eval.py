@@ -80,7 +80,7 @@ def board_stream(sim_session: Session, profile: PlayerProfile, seed: int) -> lis
 
 SIX_POSES = ((0, 0, 1), (0, 0, -1), (1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0))
 TURN_S = 40.0  # the maker turns the board through every orientation for this long
-TURN_DECIMATE = 10  # every 10th sample of the turn goes into the fit (20 Hz)
+TURN_AVERAGE = 10  # the turn's samples are averaged in tens (20 Hz) for the fit: noise down by sqrt(10)
 
 
 def _on_the_table(profile: PlayerProfile, seed: int, root: Callable[[np.ndarray], np.ndarray],
@@ -122,17 +122,18 @@ def maker_calibration(profile: PlayerProfile, seed: int) -> tuple[BoardCalibrati
         data = _on_the_table(profile, seed, still, 2.0)
         poses.append(Pose(data.acc[:, 0], data.gyr[:, 0]))
     acc = six_pose_calibration(poses)
-    turned = _on_the_table(profile, seed, _tumble, TURN_S).mag[::TURN_DECIMATE, 0]
+    mag = _on_the_table(profile, seed, _tumble, TURN_S).mag[:, 0]
+    turned = mag[:len(mag) // TURN_AVERAGE * TURN_AVERAGE].reshape(-1, TURN_AVERAGE, 3).mean(axis=1)
     try:
-        mag: MagFit | None = fit_ellipsoid(turned)
-        problem = judge(mag)
+        fit: MagFit | None = fit_ellipsoid(turned)
+        problem = judge(fit)
     except MagFitError as e:
-        mag, problem = None, str(e)
+        fit, problem = None, str(e)
     problems = ([] if acc.ok else [f"six-pose calibration failed: {acc.message}"]) + \
         ([f"magnetometer calibration failed: {problem}"] if problem else [])
     cal = BoardCalibration(acc_offset=acc.offset, acc_scale=acc.scale)  # the identity when not ok
-    if mag is not None and not problem:
-        cal = replace(cal, mag_hard_iron=np.array(mag.offset), mag_soft_iron=np.array(mag.soft_iron))
+    if fit is not None and not problem:
+        cal = replace(cal, mag_hard_iron=np.array(fit.offset), mag_soft_iron=np.array(fit.soft_iron))
     return cal, "; ".join(problems) or None
 
 
