@@ -4,6 +4,7 @@ import json
 import os
 import tomllib
 from dataclasses import fields
+from pathlib import Path
 
 import pytest
 
@@ -81,6 +82,7 @@ def test_the_catalogue_holds_the_issues_players_and_spans_the_ranges():
 
 
 def test_the_catalogue_ships_with_the_package():
-    with open(os.path.join(os.path.dirname(PROFILES_DIR), "..", "pyproject.toml"), "rb") as f:
+    # The project's own pyproject.toml (beside tests/), wherever the package under test is installed.
+    with open(Path(__file__).resolve().parents[2] / "pyproject.toml", "rb") as f:
         data = tomllib.load(f)["tool"]["setuptools"]["package-data"]["game"]
     assert "profiles/*.json" in data and "profiles/README.md" in data
