@@ -227,7 +227,10 @@ def run_match(config: MatchConfig, progress: Callable[[str], None] | None = None
         game = app.game
         if config.endless:
             game.arena_settings = ArenaSettings(contact_damage_per_s=0.0)
-        source = WireInput(wire, Tracking(board=maker_calibration(profile, seed)[0]))
+        board_calibration, problem = maker_calibration(profile, seed)
+        if problem and progress:  # the match goes on with what the maker's calibration gave
+            progress(f"seed {seed}: {problem}")
+        source = WireInput(wire, Tracking(board=board_calibration))
         game.use_source(source)
         walking = [Controls()]
         game.walker = lambda: walking[0]
