@@ -5,23 +5,22 @@ elsewhere) is the truth: within a factor of two in every statistic of
 :mod:`game.realism`, and the recording's own figures as its README states them.
 """
 
-import os
-
 import numpy as np
 import pytest
 
 from game.motion_model import PlayerProfile
-from game.realism import METRICS, RECORDING, compare_with_recording, recording_stats, simulated_stats, table
+from game.realism import METRICS, compare_with_recording, recording_stats, simulated_stats, table
 
+from ..shared_data import REAL_ARM
 from ..unavailable import unavailable
 
 
 @pytest.fixture(scope="module")
 def recording():
-    if not os.path.exists(RECORDING):
-        unavailable(f"the real arm recording is not at {RECORDING} (set ENERGYBALL_REAL_ARM)",
+    if not REAL_ARM.is_file():
+        unavailable(f"the real arm recording is not at {REAL_ARM} (set ENERGYBALL_REAL_ARM)",
                     "the recording is required")
-    return RECORDING
+    return REAL_ARM
 
 
 def test_the_statistics_read_the_recordings_readme_figures(recording):

@@ -2,7 +2,6 @@
 
 import json
 import math
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -14,10 +13,10 @@ from scipy.spatial.transform import Rotation
 from tracker.evaluate import (DatasetError, Trial, error_angles, find_trials, load_trial,
                               markdown_table, rmse)
 
+from ..shared_data import BROAD
 from ..unavailable import unavailable
 
 ROOT = Path(__file__).resolve().parents[2]
-BROAD = Path(os.environ.get("ENERGYBALL_BROAD", ROOT.parent / "shared" / "data" / "broad"))
 
 
 def wxyz(r: Rotation) -> np.ndarray:

@@ -12,7 +12,6 @@ The table for the README: ``.venv/bin/python -m tests.tracker.test_stillness_rea
 """
 
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,11 +20,10 @@ import pytest
 
 from tracker import calibration as C
 
+from ..shared_data import REAL_ARM
 from ..unavailable import unavailable
 
-ROOT = Path(__file__).resolve().parents[2]
-DATA = Path(os.environ.get("ENERGYBALL_REAL_ARM",
-                           ROOT.parent / "shared" / "data" / "real-arm" / "qmt_full_body_arms.npz"))
+DATA = REAL_ARM
 ARMS = ("upper_arm_right", "upper_arm_left")
 HOLD_S = 2.0
 STEP_S = 0.1
