@@ -39,6 +39,7 @@ AK8963_WHOAMI = 0x48
 FIRMWARE_VERSION = "1.0.0"
 MIN_RATE_HZ, MAX_RATE_HZ = 1, 1000
 LEGACY_RATE_HZ = 20  # a 40-byte text line at 9600 baud leaves room for ~24 lines/s
+CATCH_UP_S = 0.5  # the longest hiccup of the host process whose samples are still sent late, not lost
 _BAUD_CONSTANTS = {getattr(termios, f"B{b}"): b for b in
                    (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400)}
 
@@ -353,9 +354,10 @@ class VirtualBoard:
         if not st.streaming:
             st.next_sample = due
             return
-        # Catch up at most 50 ms of samples after a hiccup; older ones are never taken,
-        # so, as after a stall, the sequence number (samples taken) does not count them.
-        first = max(st.next_sample, due - max(1, st.rate_hz // 20))
+        # Catch up on the samples a hiccup of this process (the GIL, a collection, a loaded
+        # machine) delayed, up to CATCH_UP_S: those are the host's delays, not the board's.
+        # A frozen board loop is modelled by stall(), which skips instead.
+        first = max(st.next_sample, due - max(1, int(st.rate_hz * CATCH_UP_S)))
         chunk = bytearray()
         for k in range(first, due):
             t = k / st.rate_hz

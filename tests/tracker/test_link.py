@@ -3,6 +3,7 @@
 import os
 import time
 
+import numpy as np
 import pytest
 from serial.tools.list_ports_common import ListPortInfo
 
@@ -44,6 +45,21 @@ def test_five_seconds_at_200hz_arrive_exactly_then_the_link_survives_a_pulled_ca
         assert link.health().reconnects == 1
         # The board powered up again: its clock and sequence started over.
         assert resumed[0].t < 1.5
+
+
+def test_a_hiccup_of_the_host_process_delays_samples_but_loses_none():
+    """The board thread blocked for 0.3 s (as a collection or a loaded machine does) sends
+    the samples it owes late; their device times stay 1/rate apart (only stall() skips)."""
+    settings = BoardSettings(rate_hz=200, stream_at_boot=False, keep_sent=10_000)
+    with VirtualBoard(settings=settings) as board, Link(LinkSettings(board.port)) as link:
+        link.drain()
+        time.sleep(0.3)
+        with board._lock:  # the firmware loop takes this lock every turn
+            time.sleep(0.3)
+        got = stream(link, board, 0.5)
+    t = np.array([s.t for s in got])
+    assert len(t) >= 150
+    np.testing.assert_allclose(np.diff(t), 1 / 200, atol=2e-6)
 
 
 def test_handshake_sets_the_requested_rate_and_mode():
