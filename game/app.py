@@ -27,7 +27,8 @@ from .avatar import Avatar, BodySettings, Wearing
 from .controls import KeyboardMouse, SampleInput, TrackerInput
 from .gestures import GestureEvent, GestureMachine, GestureSettings
 from .pose import ArmPose
-from .preferences import Preferences, Score, add_score, load_preferences, load_scores, save_preferences
+from .preferences import (Preferences, Score, add_score, load_preferences, load_scores, save_preferences,
+                          step_flex_on, storage_notice)
 from .render import Renderer
 from .wearing import arm_down, arm_down_then_forward, recenter
 
@@ -35,6 +36,7 @@ WINDOW = (1280, 720)
 HOLD_S = {"down": 2.5, "forward": 2.0}
 GET_READY_S = 2.0
 BOARD_SCAN_S = 2.0
+NOTICE_LINES = 4  # the menu shows the latest notices (start-up ones are also printed on stderr)
 WHITE, RED, GREEN, YELLOW = (240, 240, 240), (230, 70, 60), (90, 220, 120), (250, 210, 80)
 
 
@@ -200,8 +202,10 @@ class Menu:
         r.draw_world(surface, self.game.arena, self.game.avatar, 0.0)
         r.draw_title(surface, "ENERGYBALL", "raise your arm, flex, snap it straight")
         r.draw_menu(surface, list(self.items), self.selected, surface.get_height() // 2)
-        lines = [f"input: {self.game.hud()['input']}", *self.game.notices[-2:]]
-        r.draw_panel(surface, lines, pygame.Rect(20, surface.get_height() - 90, 700, 70))
+        lines = [f"input: {self.game.hud()['input']}", *self.game.notices[-NOTICE_LINES:]]
+        w, h = surface.get_size()
+        height = 20 + 30 * len(lines)
+        r.draw_panel(surface, lines, pygame.Rect(20, h - height - 20, w - 40, height))
 
 
 @dataclass
@@ -515,7 +519,7 @@ class Settings:
         elif item == "Arm":
             p = replace(p, side="left" if p.side == "right" else "right")
         elif item == "Launch flex":
-            p = replace(p, flex_on_deg=min(120.0, max(p.flex_off_deg + 10, p.flex_on_deg + 5 * step)))
+            p = step_flex_on(p, step)
         elif item == "Volume":
             p = replace(p, volume=round(min(1.0, max(0.0, p.volume + 0.1 * step)), 1))
         elif item == "Music":
@@ -597,7 +601,7 @@ class App:
         # The link's reader thread must get the GIL promptly while frames draw: switch
         # threads every 0.5 ms rather than Python's default 5 ms (input latency).
         sys.setswitchinterval(0.0005)
-        loaded, notice = load_preferences(config_dir) if prefs is None else (prefs, "")
+        loaded, notices = load_preferences(config_dir) if prefs is None else (prefs, [])
         if input_choice:
             loaded = replace(loaded, input=input_choice)
         flags = pygame.RESIZABLE | (pygame.FULLSCREEN if loaded.fullscreen else 0)
@@ -605,12 +609,15 @@ class App:
         pygame.display.set_caption("EnergyBall")
         audio = Audio(volume=loaded.volume, music_volume=loaded.music_volume)
         audio.start()  # opens the mixer now, so a missing audio device is noticed here
-        scores, score_notice = load_scores(config_dir)
+        scores, score_notices = load_scores(config_dir)
+        file_notices = [*notices, *score_notices, storage_notice(config_dir)]
+        for notice in filter(None, file_notices):  # also for a player who looks at the terminal
+            print(f"energyball: {notice}", file=sys.stderr)
         self.game = Game(loaded, audio, Renderer(self.surface.get_size()), scores=scores,
                          seed=seed, config_dir=config_dir)
         if draws:  # a headless match that never draws skips the drawing's preparations
             self.game.renderer.prepare(self.surface.get_size())
-        self.game.notices += [n for n in (notice, score_notice, audio.notice) if n]
+        self.game.notices += [n for n in (*file_notices, audio.notice) if n]
         apply_input(self.game)
         self.game.new_round()
         self.screen: Screen = Menu(self.game)
