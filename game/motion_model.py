@@ -68,7 +68,6 @@ from __future__ import annotations
 
 import bisect
 import copy
-import json
 import math
 import os
 from dataclasses import asdict, dataclass, field, fields, replace
@@ -84,6 +83,7 @@ from tracker.sim import (
     TYPICAL_FLEX_CREEP_PCT, TYPICAL_FLEX_HYSTERESIS_PCT, TYPICAL_GYRO_BIAS_DPS, TYPICAL_GYRO_WARMUP_DPS,
     TYPICAL_MAG_DISTURBANCE_UT, TYPICAL_MAG_HARD_IRON_UT, TYPICAL_MAG_SOFT_IRON_PCT, Chain, Motion,
     SensorErrors, arm_chain, realistic_errors)
+from tracker.userjson import read_json
 
 from .avatar import Wearing
 
@@ -192,7 +192,7 @@ class PlayerProfile:
         for name, (low, high, what) in _RANGES.items():
             value = getattr(self, name)
             ok = isinstance(value, (int, float)) and not isinstance(value, bool)
-            if not (ok and math.isfinite(value) and low <= value <= high):
+            if not (ok and low <= value <= high):  # NaN fails it; a huge int is compared exactly
                 raise ValueError(f"player profile: {name} must be {what} between {low:g} "
                                  f"and {high:g}, not {value!r}")
             object.__setattr__(self, name, float(value))
@@ -214,12 +214,8 @@ class PlayerProfile:
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> PlayerProfile:
-        """Read a profile file; ValueError naming the file if it is broken."""
-        try:
-            with open(path, encoding="utf-8") as f:
-                data = json.load(f)
-        except (UnicodeDecodeError, json.JSONDecodeError) as e:
-            raise ValueError(f"{path}: not a player profile (bad JSON: {e})") from None
+        """Read a profile file; ValueError naming the file if it is broken, OSError if it cannot be read."""
+        data = read_json(path)  # JSONInputError (a ValueError) names the file; OSError if unreadable
         try:
             return cls.from_json(data)
         except ValueError as e:

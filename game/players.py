@@ -11,11 +11,12 @@ from __future__ import annotations
 import json
 import os
 import re
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 from tracker.atomic import atomic_write
 from tracker.flex import FlexCalibration, FlexCalibrationError
+from tracker.userjson import JSONInputError, read_json
 
 from .avatar import BodySettings, Wearing
 
@@ -38,7 +39,7 @@ class Player:
     flex: FlexCalibration | None = None
 
     def __post_init__(self) -> None:
-        if not _NAME.match(self.name):
+        if not isinstance(self.name, str) or not _NAME.match(self.name):
             raise ProfileError(f"a player name is 1-40 letters, digits, spaces, '.', '_' or '-', "
                                f"starting with a letter or digit: {self.name!r} is not")
 
@@ -54,19 +55,48 @@ class Player:
             raise ProfileError("not an EnergyBall player profile")
         if d.get("version") != VERSION:
             raise ProfileError(f"profile version {d.get('version')!r} is not {VERSION}")
+        missing = [k for k in ("name", "body", "wearing") if k not in d]
+        if missing:
+            raise ProfileError(f"it lacks {', '.join(missing)}")
         try:
-            wearing = Wearing(_quat(d["wearing"]["mount"]), _quat(d["wearing"]["init"]))
-            flex = FlexCalibration.from_json(d["flex"]) if d.get("flex") else None
-            return cls(d["name"], BodySettings(**d["body"]), wearing, flex)
-        except (KeyError, TypeError, ValueError, FlexCalibrationError) as e:
-            raise ProfileError(f"a field is missing or wrong ({e})") from None
+            worn = _object(d["wearing"], "wearing")
+            wearing = Wearing(_quat(worn.get("mount")), _quat(worn.get("init")))
+            flex = FlexCalibration.from_json(d["flex"]) if d.get("flex") is not None else None
+            return cls(d["name"], _body(d["body"]), wearing, flex)
+        except (TypeError, ValueError) as e:  # FlexCalibrationError is a ValueError
+            raise ProfileError(f"a field is wrong ({e})") from None
+
+
+def _object(value: object, what: str) -> dict:
+    if not isinstance(value, dict):
+        raise ValueError(f"{what} must be an object")
+    return value
+
+
+def _number(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _body(value: object) -> BodySettings:
+    """BodySettings from the profile's object: known keys only, lengths as numbers (not true/false)."""
+    d = _object(value, "body")
+    known = {f.name: f for f in fields(BodySettings)}
+    unknown = [k for k in d if k not in known]
+    if unknown:
+        raise ValueError(f"body has an unknown key {unknown[0]!r}")
+    lengths = [k for k, v in d.items() if known[k].type in ("float", float) and not _number(v)]
+    if lengths:
+        raise ValueError(f"body.{lengths[0]} must be a number, not {d[lengths[0]]!r}")
+    return BodySettings(**d)
 
 
 def _quat(values: object) -> tuple[float, float, float, float]:
-    q = tuple(float(v) for v in values)  # type: ignore[union-attr]
-    if len(q) != 4 or not 0.99 < sum(c * c for c in q) < 1.01:
+    if not (isinstance(values, list) and len(values) == 4 and all(map(_number, values))):
+        raise ValueError(f"{values!r} is not a unit quaternion (4 numbers)")
+    q = (float(values[0]), float(values[1]), float(values[2]), float(values[3]))
+    if not 0.99 < sum(c * c for c in q) < 1.01:
         raise ValueError(f"{values!r} is not a unit quaternion")
-    return q  # type: ignore[return-value]
+    return q
 
 
 def players_dir() -> Path:
@@ -76,6 +106,8 @@ def players_dir() -> Path:
 
 
 def _path(name: str, directory: Path | None) -> Path:
+    if not isinstance(name, str) or not _NAME.match(name):  # never a path outside the folder
+        raise ProfileError(f"{name!r} is not a player name (1-40 letters, digits, spaces, '.', '_' or '-')")
     return (directory or players_dir()) / f"{name}.json"
 
 
@@ -94,11 +126,13 @@ def load(name: str, directory: Path | None = None) -> Player:
     """The named player's profile."""
     path = _path(name, directory)
     try:
-        data = json.loads(path.read_text())
+        data = read_json(path)
     except FileNotFoundError:
         raise ProfileError(f"no profile named {name!r} (looked for {path})") from None
-    except (OSError, ValueError) as e:
-        raise ProfileError(f"{path} is damaged: {e}") from None
+    except JSONInputError as e:
+        raise ProfileError(f"{path} is damaged: {e.problem}") from None
+    except OSError as e:
+        raise ProfileError(f"{path} cannot be read: {e.strerror or e}") from None
     try:
         return Player.from_json(data)
     except ProfileError as e:

@@ -55,6 +55,7 @@ from .atomic import atomic_write
 from .lowpass import LowPass2
 from . import quat
 from .protocol import RawSample
+from .userjson import JSONInputError, read_json
 
 Array = NDArray[np.float64]
 Vec = tuple[float, float, float]
@@ -930,10 +931,24 @@ class BoardCalibration:
         missing = [n for n in names if n not in d]
         if missing:
             raise ValueError(f"it lacks {', '.join(missing)}")
+        for n in names[1:]:
+            if not _plain_numbers(d[n]):
+                raise ValueError(f"{n} must be a list of numbers (or of lists of numbers)")
         try:
             return cls(**{n: d[n] for n in names})
         except (TypeError, ValueError) as e:
             raise ValueError(str(e)) from None
+
+
+def _plain_numbers(value: object) -> bool:
+    """A list of numbers or of lists of numbers, as :meth:`BoardCalibration.to_json` writes: no
+    text, no true/false (which numpy would take for numbers)."""
+    if not isinstance(value, list):
+        return False
+    items: list[object] = []
+    for v in value:
+        items.extend(v if isinstance(v, list) else [v])
+    return all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in items)
 
 
 def _array_fields() -> list[Field]:
@@ -980,18 +995,16 @@ def save(cal: BoardCalibration, directory: str | os.PathLike | None = None) -> P
 
 
 def _read_json(path: Path) -> object:
+    """The file's JSON, read with tracker.userjson's limits; CalibrationFileError otherwise."""
     try:
-        text = path.read_text(encoding="utf-8")
+        return read_json(path)
     except FileNotFoundError:
         raise CalibrationFileError(path, "no calibration saved for this board yet") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise CalibrationFileError(path, f"cannot read it: {getattr(e, 'strerror', None) or e}") \
+    except JSONInputError as e:
+        raise CalibrationFileError(path, f"it is damaged ({e.problem}); delete it or calibrate again") \
             from None
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError as e:
-        raise CalibrationFileError(path, f"it is damaged (not valid JSON: {e.msg} at line "
-                                         f"{e.lineno}); delete it or calibrate again") from None
+    except OSError as e:
+        raise CalibrationFileError(path, f"cannot read it: {e.strerror or e}") from None
 
 
 def load(board_id: str, directory: str | os.PathLike | None = None) -> BoardCalibration:

@@ -42,7 +42,6 @@ import math
 import os
 from dataclasses import asdict, dataclass, fields, replace
 from enum import Enum
-from pathlib import Path
 from typing import NamedTuple, Sequence
 
 import numpy as np
@@ -50,6 +49,7 @@ from mypy_extensions import mypyc_attr
 from numpy.typing import ArrayLike, NDArray
 
 from .atomic import atomic_write
+from .userjson import JSONInputError, read_json
 
 Array = NDArray[np.float64]
 FloatOrArray = float | Array  # one count, or many (the same arithmetic on either)
@@ -57,6 +57,7 @@ FloatOrArray = float | Array  # one count, or many (the same arithmetic on eithe
 FULL_BEND_DEG = 127.0  # where the paper's 3 counts/degree put 50 kOhm (module docstring)
 CALIBRATION_KIND = "energyball.flex_calibration"
 CALIBRATION_VERSION = 1
+MAX_BENT_DEG = 180.0  # a saved calibration's full bend: no elbow folds further
 MIN_SPAN_COUNTS = 20.0  # straight and bent poses closer than this: the sensor is not responding
 
 
@@ -247,7 +248,11 @@ class FlexCalibration:
 
     @classmethod
     def from_json(cls, data: object) -> FlexCalibration:
-        """Read :meth:`to_json`'s object; :class:`FlexCalibrationError` if it is not one."""
+        """Read :meth:`to_json`'s object; :class:`FlexCalibrationError` if it is not one.
+
+        Beyond the class's own checks, a file's counts must lie on the 10-bit
+        ADC's scale and its full bend within :data:`MAX_BENT_DEG`.
+        """
         if not isinstance(data, dict) or data.get("kind") != CALIBRATION_KIND:
             raise FlexCalibrationError(
                 f"not a flex calibration (expected kind {CALIBRATION_KIND!r})")
@@ -260,7 +265,15 @@ class FlexCalibration:
             raise FlexCalibrationError(f"flex calibration is missing {', '.join(missing)}")
         if any(isinstance(data[n], bool) for n in names):
             raise FlexCalibrationError("flex calibration values must be numbers")
-        return cls(**{n: data[n] for n in names})
+        cal = cls(**{n: data[n] for n in names})
+        adc_max = FlexCircuit().adc_max
+        if not (0 <= cal.adc_straight <= adc_max and 0 <= cal.adc_bent <= adc_max):
+            raise FlexCalibrationError(f"flex calibration counts must lie within the ADC's 0-{adc_max}, "
+                                       f"not {cal.adc_straight!r} and {cal.adc_bent!r}")
+        if not cal.bent_deg <= MAX_BENT_DEG:
+            raise FlexCalibrationError(f"flex calibration: bent angle {cal.bent_deg!r} must be at most "
+                                       f"{MAX_BENT_DEG:g} degrees")
+        return cal
 
     def save(self, path: str | os.PathLike) -> None:
         """Write atomically: the old file or the new one, never half of one."""
@@ -272,11 +285,10 @@ class FlexCalibration:
 
         A missing file raises ``FileNotFoundError`` (a person not calibrated yet).
         """
-        text = Path(path).read_bytes()
         try:
-            return cls.from_json(json.loads(text))
-        except (UnicodeDecodeError, json.JSONDecodeError) as e:
-            raise FlexCalibrationError(f"{path}: not a flex calibration (bad JSON: {e})") from None
+            return cls.from_json(read_json(path))
+        except JSONInputError as e:
+            raise FlexCalibrationError(f"{path}: not a flex calibration (bad JSON: {e.problem})") from None
         except FlexCalibrationError as e:
             raise FlexCalibrationError(f"{path}: {e}") from None
 

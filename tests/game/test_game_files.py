@@ -23,8 +23,12 @@ from hypothesis import strategies as st  # noqa: E402
 
 from game import preferences as P  # noqa: E402
 from game.app import App, GameOver, Menu, Play, Settings  # noqa: E402
+from game import players  # noqa: E402
 from game.arena_model import Zombie  # noqa: E402
+from game.motion_model import PlayerProfile  # noqa: E402
+from game.players import Player, ProfileError  # noqa: E402
 from game.preferences import FLEX_GAP_DEG, Preferences, Score, load_preferences, load_scores  # noqa: E402
+from tracker.flex import FlexCalibration  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 DT = 1 / 60
@@ -351,3 +355,106 @@ def test_any_scores_file_loads_as_a_valid_table_and_changes_nothing(content):
     assert all(Score(**dataclasses.asdict(s)) == s for s in scores)
     if not notices and isinstance(content, str) and content.strip():  # clean: every entry kept (best ten)
         assert len(scores) == min(P.MAX_SCORES, len(json.loads(content)))
+
+
+# ----------------------------------------------------------------- simulated players' profiles (case 10)
+
+BAD_PROFILES = {
+    "400 digits": '{"speed": ' + "9" * 400 + "}",
+    "nested 100000 deep": '{"speed":' * 100_000 + "1" + "}" * 100_000,
+    "NaN": '{"speed": NaN}',
+    "true": '{"speed": true}',
+    "not UTF-8": b'{"speed": "\xff"}',
+    "a list": "[1, 2]",
+}
+
+
+@pytest.mark.parametrize("command", [["--headless"], ["gestures-eval"]])
+@pytest.mark.parametrize("name", list(BAD_PROFILES))
+def test_a_bad_profile_is_one_line_and_exit_1(tmp_path, command, name):
+    path = tmp_path / "bad.json"
+    content = BAD_PROFILES[name]
+    path.write_bytes(content if isinstance(content, bytes) else content.encode())
+    r = subprocess.run([sys.executable, "-m", "game", *command, "--profile", str(path)], capture_output=True,
+                       text=True, cwd=ROOT, timeout=120, env={**os.environ, "HOME": str(tmp_path)})
+    assert r.returncode == 1 and r.stdout == ""
+    assert len(r.stderr.splitlines()) == 1 and r.stderr.startswith(f"energyball: {path}: ")
+    assert path.read_bytes() == (content if isinstance(content, bytes) else content.encode())
+
+
+def test_a_profile_that_is_a_fifo_or_a_folder_is_refused_without_waiting(tmp_path):
+    os.mkfifo(tmp_path / "fifo.json")  # no writer: reading it would block forever
+    for path in (tmp_path / "fifo.json", tmp_path):
+        r = subprocess.run([sys.executable, "-m", "game", "gestures-eval", "--profile", str(path)],
+                           capture_output=True, text=True, cwd=ROOT, timeout=120)
+        assert r.returncode == 1 and r.stderr == f"energyball: {path}: not a regular file\n"
+
+
+PROFILE_KEYS = [f.name for f in dataclasses.fields(PlayerProfile)]
+PROFILES = st.dictionaries(st.sampled_from(PROFILE_KEYS) | st.text(max_size=6),
+                           VALUES | st.floats(-1e3, 1e7), max_size=6)
+
+
+@settings(derandomize=True, max_examples=300)
+@given(st.one_of(PROFILES.map(dumps), TEXTS))
+def test_any_profile_file_is_a_profile_or_one_value_error_and_is_not_changed(content):
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "p.json"
+        path.write_bytes(content if isinstance(content, bytes) else content.encode())
+        try:
+            profile = PlayerProfile.load(path)
+        except ValueError as e:
+            assert str(e).startswith(f"{path}: ") and "\n" not in str(e)
+        else:
+            assert PlayerProfile.from_json(profile.to_json()) == profile
+        assert snapshot(Path(d)) == {"p.json": path.read_bytes()} and path.read_bytes() == (
+            content if isinstance(content, bytes) else content.encode())
+
+
+def player_file(changes: dict) -> str:
+    """Ada's profile with some fields replaced (by random values), as JSON text."""
+    data = Player("Ada", flex=FlexCalibration.paper()).to_json()
+    for dotted, value in changes.items():
+        owner, _, leaf = dotted.rpartition(".")
+        target = data
+        for part in filter(None, owner.split(".")):
+            if not isinstance(target.get(part), dict):
+                target[part] = {}
+            target = target[part]
+        target[leaf] = value
+    return dumps(data)
+
+
+PLAYER_FIELDS = ["name", "format", "version", "body", "wearing", "flex", "body.side", "body.height_m",
+                 "body.upper_arm_m", "body.extra", "wearing.mount", "wearing.init", "flex.adc_straight",
+                 "flex.bent_deg", "flex.curve"]
+PLAYERS = st.dictionaries(st.sampled_from(PLAYER_FIELDS), VALUES | st.lists(st.floats(-2, 2), max_size=5),
+                          max_size=3).map(player_file)
+
+
+@settings(derandomize=True, max_examples=300)
+@given(st.one_of(PLAYERS, TEXTS))
+def test_any_player_file_is_a_player_or_one_profile_error_and_is_not_changed(content):
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "Ada.json"
+        path.write_bytes(content if isinstance(content, bytes) else content.encode())
+        try:
+            player = players.load("Ada", Path(d))
+        except ProfileError as e:
+            assert str(e).startswith(f"{path}") and "\n" not in str(e)
+        else:
+            assert Player.from_json(json.loads(json.dumps(player.to_json()))) == player
+        assert snapshot(Path(d)) == {"Ada.json": content if isinstance(content, bytes) else content.encode()}
+
+
+def test_player_profiles_refuse_what_numpy_or_float_would_take_by_hand(tmp_path):
+    good = Player("Ada").to_json()
+    for change, words in [({"body": {**good["body"], "upper_arm_m": True}}, "body.upper_arm_m must be a number"),
+                          ({"wearing": {"mount": ["1", 0, 0, 0], "init": [1, 0, 0, 0]}}, "unit quaternion"),
+                          ({"wearing": [1, 0, 0, 0]}, "wearing must be an object"),
+                          ({"name": 5}, "player name")]:
+        (tmp_path / "Ada.json").write_text(json.dumps({**good, **change}))
+        with pytest.raises(ProfileError, match=words):
+            players.load("Ada", tmp_path)
+    with pytest.raises(ProfileError, match="is not a player name"):
+        players.load("../Ada", tmp_path)

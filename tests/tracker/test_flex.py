@@ -142,9 +142,9 @@ def test_a_failed_save_leaves_the_old_calibration_whole(tmp_path, monkeypatch):
     ('{"kind": "energyball.flex_calibration", "version": 9}', "version 9"),
     ('{"kind": "energyball.flex_calibration", "version": 1, "adc_straight": 390}', "missing adc_bent"),
     ('{"kind": "energyball.flex_calibration", "version": 1, "adc_straight": "390", '
-     '"adc_bent": 10, "bent_deg": 127, "curve": 0}', "finite numbers"),
+     '"adc_bent": 10, "bent_deg": 127, "curve": 0}', "finite number"),
     ('{"kind": "energyball.flex_calibration", "version": 1, "adc_straight": NaN, '
-     '"adc_bent": 10, "bent_deg": 127, "curve": 0}', "finite numbers"),
+     '"adc_bent": 10, "bent_deg": 127, "curve": 0}', "finite number"),
     ('{"kind": "energyball.flex_calibration", "version": 1, "adc_straight": true, '
      '"adc_bent": 10, "bent_deg": 127, "curve": 0}', "numbers"),
     ('{"kind": "energyball.flex_calibration", "version": 1, "adc_straight": 390, '

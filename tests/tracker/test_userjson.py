@@ -3,6 +3,8 @@
 import json
 import os
 import pickle
+import tempfile
+from pathlib import Path
 
 import pytest
 from hypothesis import given, settings
@@ -106,3 +108,120 @@ def test_the_error_survives_pickling_as_worker_processes_send_it():
     e = pickle.loads(pickle.dumps(JSONInputError("f.json", "nested 40 deep")))
     assert (str(e), e.source, e.problem) == ("f.json: nested 40 deep", "f.json", "nested 40 deep")
     assert isinstance(e, ValueError)
+
+
+# ----------------------------------------------------------------- the tracker's loaders that use it
+
+from tracker import calibration as C  # noqa: E402
+from tracker.flex import FlexCalibration, FlexCalibrationError  # noqa: E402
+
+
+class Raw(str):
+    """Text put into a JSON document as it is (NaN, 1e400, 70 digits: what json.dumps cannot write)."""
+
+
+RAW = st.sampled_from(["NaN", "Infinity", "-Infinity", "1e400", "9" * 70, "true", "null", '"1.0"']).map(Raw)
+ANY = st.recursive(LEAVES | RAW, lambda inner: st.lists(inner, max_size=4)
+                   | st.dictionaries(st.text(max_size=6), inner, max_size=4), max_leaves=12)
+
+
+def dumps(value) -> str:
+    if isinstance(value, Raw):
+        return str(value)
+    if isinstance(value, list):
+        return "[" + ", ".join(map(dumps, value)) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{json.dumps(k)}: {dumps(v)}" for k, v in value.items()) + "}"
+    return json.dumps(value)
+
+
+def edited(good: dict, keys: list[str]) -> st.SearchStrategy:
+    """``good`` with up to three of ``keys`` given random values (a row of numbers, often)."""
+    values = ANY | st.lists(st.floats(-1e3, 1e3) | RAW, min_size=2, max_size=4) | st.lists(
+        st.lists(st.floats(-2, 2) | RAW, min_size=3, max_size=3), min_size=3, max_size=3)
+    return st.dictionaries(st.sampled_from(keys), values, max_size=3).map(lambda ch: dumps({**good, **ch}))
+
+
+RANDOM = st.one_of(ANY.map(dumps), st.binary(max_size=80), JSONISH)
+BOARD = C.BoardCalibration("b1").to_json()
+FLEX = FlexCalibration.paper().to_json()
+
+
+def written(folder: Path, name: str, content) -> bytes:
+    data = content if isinstance(content, bytes) else content.encode("utf-8", "surrogatepass")
+    (folder / name).write_bytes(data)
+    return data
+
+
+@settings(derandomize=True, max_examples=300)
+@given(st.one_of(edited(BOARD, list(BOARD)), RANDOM))
+def test_any_board_calibration_file_loads_or_is_one_calibration_file_error(content):
+    with tempfile.TemporaryDirectory() as d:
+        folder = Path(d)
+        data = written(folder, "b1.json", content)
+        try:
+            cal = C.load("b1", folder)
+        except C.CalibrationFileError as e:
+            assert str(e).startswith(f"board calibration {folder / 'b1.json'}: ") and "\n" not in str(e)
+        else:  # what loaded is what a save would write again
+            assert C.BoardCalibration.from_json(json.loads(json.dumps(cal.to_json()))).to_json() == cal.to_json()
+        fallback, notice = C.load_or_default("b1", folder)  # never raises
+        assert isinstance(fallback, C.BoardCalibration) and "\n" not in notice
+        assert [p.name for p in folder.iterdir()] == ["b1.json"] and (folder / "b1.json").read_bytes() == data
+
+
+@settings(derandomize=True, max_examples=300)
+@given(st.one_of(edited(FLEX, list(FLEX)), RANDOM))
+def test_any_flex_calibration_file_loads_or_is_one_flex_calibration_error(content):
+    with tempfile.TemporaryDirectory() as d:
+        folder = Path(d)
+        data = written(folder, "f.json", content)
+        try:
+            cal = FlexCalibration.load(folder / "f.json")
+        except FlexCalibrationError as e:
+            assert str(e).startswith(f"{folder / 'f.json'}: ") and "\n" not in str(e)
+        else:
+            assert 0 <= min(cal.adc_straight, cal.adc_bent) and max(cal.adc_straight, cal.adc_bent) <= 1023
+            assert 0 < cal.bent_deg <= 180 and abs(cal.curve) <= 1
+            assert cal.degrees_one(500.0) == cal.degrees_one(500.0)  # a number, never NaN
+        assert [p.name for p in folder.iterdir()] == ["f.json"] and (folder / "f.json").read_bytes() == data
+
+
+@pytest.mark.parametrize("field, text, words", [
+    ("gyro_bias", "[" + "9" * 400 + ", 0, 0]", "a number of 400 characters"),
+    ("gyro_bias", "[1e400, 0, 0]", "1e400 is too large"),
+    ("gyro_bias", "[NaN, 0, 0]", "NaN is not a JSON number"),
+    ("gyro_bias", "[true, 0, 0]", "gyro_bias must be a list of numbers"),
+    ("gyro_bias", '["1", 0, 0]', "gyro_bias must be a list of numbers"),
+    ("acc_misalignment", "[[1, 0, 0], [0, 1, 0], [0, 0, [1]]]", "acc_misalignment must be a list of numbers"),
+    ("mag_soft_iron", "[[1, 0, 0], [0, 1, 0]]", "mag_soft_iron must be 3 x 3 finite numbers"),
+])
+def test_a_board_calibration_value_is_refused_by_hand(tmp_path, field, text, words):
+    good = json.dumps({**BOARD, field: "X"}).replace('"X"', text)
+    (tmp_path / "b1.json").write_text(good)
+    with pytest.raises(C.CalibrationFileError, match=words) as e:
+        C.load("b1", tmp_path)
+    assert "\n" not in str(e.value) and str(tmp_path / "b1.json") in str(e.value)
+
+
+def test_a_board_calibration_nested_100000_deep_is_one_line(tmp_path):
+    (tmp_path / "b1.json").write_text("[" * 100_000 + "]" * 100_000)
+    cal, notice = C.load_or_default("b1", tmp_path)
+    assert cal.to_json() == BOARD
+    assert notice == (f"board calibration {tmp_path / 'b1.json'}: it is damaged (nested 100000 deep; at most "
+                      f"32 is read); delete it or calibrate again; using the default calibration")
+
+
+@pytest.mark.parametrize("changes, words", [
+    ({"adc_straight": Raw("9" * 400)}, "bad JSON: a number of 400 characters"),
+    ({"adc_straight": 2000}, "counts must lie within the ADC's 0-1023"),
+    ({"adc_bent": -5}, "counts must lie within the ADC's 0-1023"),
+    ({"bent_deg": 720}, "bent angle 720 must be at most 180"),
+    ({"curve": Raw("Infinity")}, "bad JSON: Infinity is not a JSON number"),
+])
+def test_a_flex_calibration_value_is_refused_by_hand(tmp_path, changes, words):
+    path = tmp_path / "f.json"
+    path.write_text(dumps({**FLEX, **changes}))
+    with pytest.raises(FlexCalibrationError, match=words) as e:
+        FlexCalibration.load(path)
+    assert str(e.value).startswith(f"{path}: ") and "\n" not in str(e.value)
