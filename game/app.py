@@ -603,7 +603,10 @@ class App:
         sys.setswitchinterval(0.0005)
         loaded, notices = load_preferences(config_dir) if prefs is None else (prefs, [])
         if input_choice:
-            loaded = replace(loaded, input=input_choice)
+            try:
+                loaded = replace(loaded, input=input_choice)
+            except ValueError as e:  # a port name no port has (the command line should refuse it first)
+                notices.append(f"{e}; using {loaded.input!r}")
         flags = pygame.RESIZABLE | (pygame.FULLSCREEN if loaded.fullscreen else 0)
         self.surface = pygame.display.set_mode(size, flags)
         pygame.display.set_caption("EnergyBall")

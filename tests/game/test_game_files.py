@@ -161,6 +161,16 @@ def test_stepping_flex_on_from_any_valid_pair_stays_valid(off, gap, steps):
         assert p.flex_off_deg == off and p.flex_off_deg + FLEX_GAP_DEG <= p.flex_on_deg <= 120.0
 
 
+def test_an_input_choice_no_setting_can_hold_is_a_notice_not_a_crash(config, capsys):
+    app = App(input_choice="x" * 300, seed=1)
+    try:
+        assert app.game.prefs.input == "auto" and app.game.source == "keyboard"
+        assert any(n.startswith("input must be text of 1 to 200 printable characters") and n.endswith(
+            "; using 'auto'") for n in app.game.notices)
+    finally:
+        app.close()
+
+
 # ----------------------------------------------------------------- scores.json
 
 GOOD = [{"name": "Ada", "score": 900, "wave": 4, "date": "2024-05-01"},
