@@ -39,6 +39,7 @@ ACC_FS_G = (2, 4, 8, 16)  # full-scale code -> +-g (MPU-9250 ACCEL_FS_SEL)
 GYR_FS_DPS = (250, 500, 1000, 2000)  # full-scale code -> +-deg/s (GYRO_FS_SEL)
 MAG_UT_PER_COUNT = 0.15  # AK8963 in 16-bit output mode
 FLEX_ADC_MASK = 0x03FF  # 10-bit ADC
+MAX_RATE_HZ = 1000  # the fastest rate SET_RATE accepts (PROTOCOL.md sec. 6)
 
 
 class FrameType(IntEnum):
@@ -234,14 +235,62 @@ class Hello:
         }
 
     @classmethod
-    def from_json(cls, d: dict) -> "Hello":
-        """Inverse of :meth:`to_json`."""
+    def from_json(cls, d: object) -> "Hello":
+        """Inverse of :meth:`to_json`; anything else is a ``ValueError`` naming the field.
+
+        The fields are checked against what a HELLO frame can carry (PROTOCOL.md
+        sec. 5.1): bytes 0..255, a u16 rate, the four full scales of each sensor,
+        the error flags by name. Keys we do not know are ignored.
+        """
+        if not isinstance(d, dict):
+            raise ValueError(f"expected an object of the board's fields, not {_brief(d)}")
+        byte = range(256)
+        firmware = _field(d, "firmware", str)
+        parts = firmware.split(".")
+        if len(parts) != 3 or not all(p.isdigit() and int(p) in byte for p in parts):
+            raise ValueError(f"'firmware' is {_brief(firmware)}; expected a version like \"1.0.0\" (each part 0..255)")
+        mode = _field(d, "mode", str)
+        if mode.upper() not in Mode.__members__:
+            raise ValueError(f"'mode' is {_brief(mode)}; expected one of {', '.join(m.name.lower() for m in Mode)}")
+        errors_field = d.get("errors", [])
+        if not isinstance(errors_field, list):
+            raise ValueError(f"'errors' is {_brief(errors_field)}; expected a list of flag names")
         errors = BoardError.NONE
-        for name in d.get("errors", []):
+        for name in errors_field:
+            if not isinstance(name, str) or name not in BoardError.__members__ or name == "NONE":
+                raise ValueError(f"'errors' holds {_brief(name)}; expected flag names from "
+                                 f"{', '.join(e.name for e in BoardError if e)}")
             errors |= BoardError[name]
-        return cls(d["protocol"], d["firmware"], d["imu_whoami"], d["mag_whoami"],
-                   d["rate_hz"], Mode[d["mode"].upper()], d["streaming"],
-                   d["acc_fs_g"], d["gyr_fs_dps"], errors)
+        return cls(_int_in(d, "protocol", byte), firmware, _int_in(d, "imu_whoami", byte),
+                   _int_in(d, "mag_whoami", byte), _int_in(d, "rate_hz", range(1 << 16)),
+                   Mode[mode.upper()], _field(d, "streaming", bool),
+                   _int_in(d, "acc_fs_g", ACC_FS_G), _int_in(d, "gyr_fs_dps", GYR_FS_DPS), errors)
+
+
+def _brief(value: object, limit: int = 40) -> str:
+    """A value as a short one-line text, for messages."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def _field(d: dict, key: str, kind: type) -> Any:
+    """``d[key]``, which must be of type ``kind`` (a bool is not an int here)."""
+    if key not in d:
+        raise ValueError(f"'{key}' is missing")
+    value = d[key]
+    if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
+        raise ValueError(f"'{key}' is {_brief(value)}; expected {'true or false' if kind is bool else kind.__name__}")
+    return value
+
+
+def _int_in(d: dict, key: str, allowed: range | tuple[int, ...]) -> int:
+    """``d[key]``, an integer among ``allowed``."""
+    value: int = _field(d, key, int)
+    if value not in allowed:
+        shown = (f"{allowed.start}..{allowed.stop - 1}" if isinstance(allowed, range)
+                 else " or ".join(map(str, allowed)))
+        raise ValueError(f"'{key}' is {value}; expected {shown}")
+    return value
 
 
 @dataclass(frozen=True, slots=True)
@@ -355,11 +404,12 @@ class DecoderStats:
     bytes_skipped: int = 0  # bytes that were not part of a valid frame
     unknown: int = 0  # valid frames of a type this host does not know
     bad_lines: int = 0  # text mode: lines that were not a sample
+    restarts: int = 0  # times the board powered up again (or was RESET) mid-stream: see board_restarted
 
     def to_json(self) -> dict:
         return {"frames": self.frames, "crc_errors": self.crc_errors, "dropped": self.dropped,
                 "bytes_skipped": self.bytes_skipped, "unknown": self.unknown,
-                "bad_lines": self.bad_lines}
+                "bad_lines": self.bad_lines, "restarts": self.restarts}
 
     def add(self, other: DecoderStats) -> None:
         """Count ``other``'s counts in with these (a link's total over its sessions)."""
@@ -381,9 +431,10 @@ class FrameDecoder:
     stats: DecoderStats = field(default_factory=DecoderStats)
     accept_commands: bool = False  # the board side decodes commands
     _buf: bytearray = field(default_factory=bytearray)
-    _last_us: int | None = None  # the device clock of the last sample
-    _epoch: int = 0  # microseconds the device clock has wrapped by so far
-    _last_seq: int | None = None  # the sequence number of the last sample
+    _last_us: int = 0  # the device clock of the last sample
+    _epoch: int = 0  # microseconds the device clock has wrapped by so far (in this power-up)
+    _last_seq: int = -1  # the sequence number of the last sample; -1 before the first
+    _hello_since: bool = False  # a HELLO arrived after the last sample
 
     def feed(self, data: bytes, host_t: float | None = None) -> list[Packet]:
         """Decode ``data`` appended to what is buffered; return complete packets."""
@@ -436,6 +487,7 @@ class FrameDecoder:
         if ftype == FrameType.FUSED:
             return self._fused(buf, at, host_t)
         if ftype == FrameType.HELLO:
+            self._hello_since = True
             return _hello(buf, at)
         if ftype == FrameType.ACK:
             cmd, status = _ACK.unpack_from(buf, at)
@@ -448,33 +500,68 @@ class FrameDecoder:
 
     def _raw(self, buf: bytearray, at: int, host_t: float | None) -> RawSample:
         t_us, seq, ax, ay, az, gx, gy, gz, mx, my, mz, flags = _RAW.unpack_from(buf, at)
-        self._count_gap(seq)
         return RawSample(
-            self._seconds(t_us), t_us, seq, (ax, ay, az), (gx, gy, gz),
+            self._advance(t_us, seq), t_us, seq, (ax, ay, az), (gx, gy, gz),
             (mx, my, mz) if flags & _MAG_VALID_BIT else None, flags & FLEX_ADC_MASK,
             ACC_FS_G[flags >> _ACC_FS_SHIFT & 3], GYR_FS_DPS[flags >> _GYR_FS_SHIFT & 3],
             (flags & _MAG_OVERFLOW_BIT) != 0, host_t)
 
     def _fused(self, buf: bytearray, at: int, host_t: float | None) -> FusedSample:
         t_us, seq, w, x, y, z, flex = _FUSED.unpack_from(buf, at)
-        self._count_gap(seq)
-        return FusedSample(self._seconds(t_us), t_us, seq,
+        return FusedSample(self._advance(t_us, seq), t_us, seq,
                            (w / Q14, x / Q14, y / Q14, z / Q14), flex / 100.0, host_t)
 
-    def _count_gap(self, seq: int) -> None:
-        """Count the samples a sequence number says were lost before it (16-bit, wrapping)."""
-        if self._last_seq is not None:
-            self.stats.dropped += (seq - self._last_seq - 1) & 0xFFFF
-        self._last_seq = seq
+    def _advance(self, t_us: int, seq: int) -> float:
+        """Count the samples lost before this one and return its device time in seconds.
 
-    def _seconds(self, t_us: int) -> float:
-        """A sample's device time unwrapped into seconds: a step backwards of the 32-bit
-        microsecond counter by more than half its range is a wrap, not jitter."""
-        last = self._last_us
-        if last is not None and t_us < last and last - t_us > 1 << 31:
-            self._epoch += 1 << 32
-        self._last_us = t_us
+        Sequence gaps count as dropped (PROTOCOL.md sec. 9.2); the 32-bit microsecond
+        clock is unwrapped (sec. 9.3). A board that powered up again since the last
+        sample (:func:`board_restarted`) starts a new count and a new clock instead:
+        no false gap, and device time counts from its power-up again.
+        """
+        last_us, last_seq = self._last_us, self._last_seq
+        if t_us > last_us and seq == last_seq + 1:
+            pass  # nearly every sample: the next one, the clock ahead (what the rules below say, quicker)
+        elif last_seq >= 0:
+            if board_restarted(last_us, last_seq, t_us, seq, self._hello_since):
+                self.stats.restarts += 1
+                self._epoch = 0
+            else:
+                self.stats.dropped += samples_missing(last_seq, seq)
+                if t_us < last_us:  # a step back by more than half the range: a wrap
+                    self._epoch += 1 << 32
+        self._last_us, self._last_seq, self._hello_since = t_us, seq, False
         return (self._epoch + t_us) * 1e-6
+
+
+def samples_missing(last_seq: int, seq: int) -> int:
+    """Samples numbered between two consecutive ones that did not arrive (16-bit ``seq``, wrapping)."""
+    return (seq - last_seq - 1) & 0xFFFF
+
+
+def board_restarted(last_us: int, last_seq: int, t_us: int, seq: int, hello_between: bool) -> bool:
+    """Whether a sample (``t_us``, ``seq``) comes from a board that powered up again, or was
+    RESET, after the sample (``last_us``, ``last_seq``), rather than from the same power-up.
+
+    Within one power-up the device clock only advances, wrapping modulo 2^32
+    (PROTOCOL.md sec. 4), and ``seq`` counts samples taken on the sampling grid
+    (sec. 7.3-7.4) at no more than :data:`MAX_RATE_HZ` (sec. 6); at power-up and
+    after RESET ``seq`` is 0, the clock starts again and a HELLO is sent (sec. 7.1).
+    So a sample starts a new power-up when
+
+    - the clock went back by at most half its range (a larger step back is a
+      wrap, sec. 9.3), or went back at all after a HELLO (the power-up's own);
+    - or ``seq`` advanced by more samples than the clock's advance leaves room
+      for at 1000 Hz (plus one: the first sample after SET_RATE may follow the
+      previous one closely, sec. 7.3), as when a board restarts within moments.
+
+    A restart after more than 35.8 minutes of the board's uptime with no HELLO
+    in the stream looks like a wrap to the clock and may pass as one.
+    """
+    if t_us < last_us and (hello_between or last_us - t_us <= 1 << 31):
+        return True
+    advance = samples_missing(last_seq, seq) + 1
+    return advance > ((t_us - last_us) & 0xFFFFFFFF) // (1_000_000 // MAX_RATE_HZ) + 1
 
 
 def _hello(buf: bytearray, at: int) -> Hello:

@@ -543,12 +543,16 @@ def test_corrupting_every_single_byte_of_a_frame():
 
 
 def _seq_stream(seqs, t_step_us=5000, fused_every=0):
+    """Samples numbered ``seqs`` from one board: the clock advances one period per number (sec. 7.3)."""
     out = []
+    t_us = 0
     for i, seq in enumerate(seqs):
+        if i:
+            t_us += ((seq - seqs[i - 1]) & 0xFFFF) * t_step_us
         if fused_every and i % fused_every == 0:
-            out.append(P.FusedSample(0.0, i * t_step_us, seq, (1.0, 0.0, 0.0, 0.0), 0.0))
+            out.append(P.FusedSample(0.0, t_us, seq, (1.0, 0.0, 0.0, 0.0), 0.0))
         else:
-            out.append(P.RawSample(0.0, i * t_step_us, seq, (0, 0, 0), (0, 0, 0), None, 0))
+            out.append(P.RawSample(0.0, t_us, seq, (0, 0, 0), (0, 0, 0), None, 0))
     return b"".join(map(P.encode, out))
 
 
