@@ -246,7 +246,7 @@ def test_an_unreadable_config_folder_means_defaults_and_nothing_saved(config, st
         config.chmod(0o755)
 
 
-def test_permission_denied_as_root_sees_it(config, start, monkeypatch):
+def test_permission_denied_is_a_notice_also_where_root_would_not_get_it(config, start, monkeypatch):
     """Root bypasses chmod 000: the errors a user would get are given to the app instead."""
     (config / "settings.json").write_text('{"side": "left"}')
 
