@@ -22,19 +22,26 @@ the optional ``compare`` extra is installed.
 from __future__ import annotations
 
 import math
+import os
 import zipfile
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterator
+from typing import IO, Callable, Iterator
 
 import numpy as np
 
 from . import quat as Q
 from .atomic import atomic_write
 from .fusion import FILTERS, make
+from .recording import open_input
 
 REQUIRED = {"gyr": 3, "acc": 3, "mag": 3, "quat": 4}
 PEERS = ("vqf", "imufusion")
+MAX_TRIAL_BYTES = 2**30  # a BROAD trial is about 3 MB (50 000 samples)
+RATE_RANGE_HZ = (1.0, 100_000.0)  # IMUs sample at 10 Hz to 32 kHz
+QUAT_NORM_TOLERANCE = 0.1  # a truth quaternion is unit; NaN where the optical system saw nothing
+NOT_SCORABLE = "not scorable: no movement sample has ground truth"
 
 
 class DatasetError(Exception):
@@ -55,28 +62,126 @@ class Trial:
 
 
 def load_trial(path: str | Path) -> Trial:
-    """Read and check one trial file."""
+    """Read and check one trial file: every array's shape, type and range, one clear error otherwise."""
     path = Path(path)
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            data = {k: z[k] for k in z.files}
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as e:
-        raise DatasetError(f"{path}: not a readable .npz trial ({e})") from None
+    data = read_npz(path)
     missing = [k for k in (*REQUIRED, "rate") if k not in data]
     if missing:
         raise DatasetError(f"{path}: missing key(s) {', '.join(missing)}")
-    n = len(data["gyr"])
+    gyr = data["gyr"]
+    n = len(gyr) if gyr.ndim == 2 else 0
     for key, width in REQUIRED.items():
-        if data[key].shape != (n, width):
-            raise DatasetError(f"{path}: '{key}' has shape {data[key].shape}, expected ({n}, {width})")
-    movement = data.get("movement", np.ones(n, bool)).astype(bool).reshape(-1)
-    if movement.shape != (n,):
-        raise DatasetError(f"{path}: 'movement' has {movement.size} entries, expected {n}")
-    rate = float(data["rate"])
-    if not rate > 0:
-        raise DatasetError(f"{path}: 'rate' must be positive, not {rate}")
-    name = str(data["name"]) if "name" in data else path.stem
-    return Trial(name, *(data[k].astype(float) for k in REQUIRED), rate, movement)
+        a = data[key]
+        if a.dtype.kind not in "iuf":
+            raise DatasetError(f"{path}: '{key}' holds {_dtype_words(a)}; expected numbers (floats)")
+        if a.shape != (n, width) or n == 0:
+            raise DatasetError(f"{path}: '{key}' has shape {a.shape}, expected (N, {width}) with N >= 1"
+                               + (f" = {n} (the length of 'gyr')" if n and key != "gyr" else ""))
+    quat = data["quat"].astype(float)
+    _check_truth(path, quat)
+    name = path.stem
+    if "name" in data:
+        if data["name"].dtype.kind != "U" or data["name"].shape != ():
+            raise DatasetError(f"{path}: 'name' holds {_dtype_words(data['name'])} of shape "
+                               f"{data['name'].shape}; expected one string")
+        name = str(data["name"])
+    return Trial(name, gyr.astype(float), data["acc"].astype(float), data["mag"].astype(float), quat,
+                 _rate(path, data["rate"]), _movement(path, data.get("movement"), n))
+
+
+def _dtype_words(a: np.ndarray) -> str:
+    kinds = {"b": "booleans", "U": "text", "S": "bytes", "c": "complex numbers", "O": "Python objects",
+             "V": "raw records", "M": "dates", "m": "time spans"}
+    return kinds.get(a.dtype.kind, f"{a.dtype} values")
+
+
+def _rate(path: Path, a: np.ndarray) -> float:
+    """The sample rate: one number within :data:`RATE_RANGE_HZ`."""
+    low, high = RATE_RANGE_HZ
+    if a.dtype.kind not in "iuf" or a.size != 1 or a.ndim > 1:
+        raise DatasetError(f"{path}: 'rate' is {_dtype_words(a)} of shape {a.shape}; "
+                           f"expected one number, the sample rate in Hz ({low:g} to {high:g})")
+    rate = float(a.reshape(()))
+    if not low <= rate <= high:
+        raise DatasetError(f"{path}: 'rate' is {rate:g}; expected a sample rate from {low:g} to {high:g} Hz")
+    return rate
+
+
+def _movement(path: Path, a: np.ndarray | None, n: int) -> np.ndarray:
+    """The samples to evaluate: (N,) booleans (or 0/1); all of them when absent."""
+    if a is None:
+        return np.ones(n, bool)
+    if a.dtype.kind not in "biu" or a.shape != (n,) or not np.isin(a, (0, 1)).all():
+        raise DatasetError(f"{path}: 'movement' is {_dtype_words(a)} of shape {a.shape}; "
+                           f"expected ({n},) booleans")
+    return a.astype(bool)
+
+
+def _check_truth(path: Path, quat: np.ndarray) -> None:
+    """Truth rows are unit quaternions, or NaN where the reference system saw nothing (BROAD)."""
+    seen = np.isfinite(quat).all(axis=1)
+    broken = np.isinf(quat).any(axis=1) | (seen & (np.abs(np.linalg.norm(np.where(seen[:, None], quat, 1.0),
+                                                                         axis=1) - 1) > QUAT_NORM_TOLERANCE))
+    if broken.any():
+        row = int(np.argmax(broken))
+        raise DatasetError(f"{path}: 'quat' row {row} is {np.array2string(quat[row], precision=3)}; "
+                           "expected a unit quaternion, or NaN where there is no truth")
+
+
+def read_npz(path: str | Path, error: Callable[[str], Exception] = DatasetError) -> dict[str, np.ndarray]:
+    """The arrays of a ``.npz`` file, read without pickles and without trusting its headers.
+
+    A regular file of at most :data:`MAX_TRIAL_BYTES` (:func:`tracker.recording.open_input`),
+    a zip archive of ``.npy`` members (NumPy's format, ``numpy.lib.format``),
+    each member's header checked before its data is read: no Python objects
+    (they would need unpickling) and no more data claimed than the member holds.
+    """
+    with open_input(path, ".npz trial", error, MAX_TRIAL_BYTES) as f:
+        head = f.read(6)
+        f.seek(0)
+        if not head.startswith(b"PK\x03\x04") and not head.startswith(b"PK\x05\x06"):
+            hint = ": a single .npy array, renamed?" if head == b"\x93NUMPY" else ""
+            raise error(f"{path}: not a readable .npz trial (not a zip archive{hint})")
+        try:
+            with zipfile.ZipFile(f) as z:
+                total = sum(info.file_size for info in z.infolist())
+                if total > MAX_TRIAL_BYTES:
+                    raise error(f"{path}: its arrays take {total / 2**20:.0f} MB unpacked; a trial of at most "
+                                f"{MAX_TRIAL_BYTES // 2**20} MB is read")
+                return {info.filename[:-4]: _member(z, info, path, error)
+                        for info in z.infolist() if info.filename.endswith(".npy")}
+        # What a damaged archive or member raises inside zipfile, zlib and numpy.lib.format:
+        except (OSError, EOFError, ValueError, zipfile.BadZipFile, zlib.error, NotImplementedError,
+                RuntimeError) as e:
+            raise error(f"{path}: not a readable .npz trial ({_one_line(e)})") from None
+
+
+def _member(z: zipfile.ZipFile, info: zipfile.ZipInfo, path: str | Path,
+            error: Callable[[str], Exception]) -> np.ndarray:
+    key = info.filename[:-4]
+    with z.open(info) as m:
+        shape, dtype = _npy_header(m)
+    if dtype.hasobject:
+        raise error(f"{path}: '{key}' holds Python objects (pickled data), which are not read")
+    if math.prod(shape) * dtype.itemsize > info.file_size:
+        raise error(f"{path}: not a readable .npz trial ('{key}' claims more data than it holds)")
+    with z.open(info) as m:
+        return np.lib.format.read_array(m, allow_pickle=False)
+
+
+def _npy_header(m: IO[bytes]) -> tuple[tuple[int, ...], np.dtype]:
+    version = np.lib.format.read_magic(m)
+    if version == (1, 0):
+        shape, _, dtype = np.lib.format.read_array_header_1_0(m)
+    elif version == (2, 0):
+        shape, _, dtype = np.lib.format.read_array_header_2_0(m)
+    else:
+        raise ValueError(f".npy format version {version[0]}.{version[1]} is not read")
+    return shape, dtype
+
+
+def _one_line(e: BaseException) -> str:
+    return " ".join(str(e).split()) or type(e).__name__
 
 
 def find_trials(directory: str | Path) -> list[Path]:
@@ -114,16 +219,19 @@ def remove_heading_offset(q_est: np.ndarray, q_ref: np.ndarray, mask: np.ndarray
     return Q.multiply(Q.from_axis_angle([0, 0, 1], -offset), q_est)
 
 
-def rmse(q_est: np.ndarray, trial: Trial, dof: int) -> dict[str, float]:
-    """RMSE in degrees of total, heading and inclination error over the movement samples."""
-    valid = trial.movement & np.all(np.isfinite(trial.quat), axis=1)
+def rmse(q_est: np.ndarray, trial: Trial, dof: int) -> dict[str, float] | None:
+    """RMSE in degrees of total, heading and inclination error over the movement samples;
+    None when no movement sample has ground truth (nothing to score)."""
+    valid = trial.movement & np.all(np.isfinite(trial.quat), axis=1) & np.all(np.isfinite(q_est), axis=1)
+    if not valid.any():
+        return None
     est, ref = q_est[valid], trial.quat[valid]
     if dof == 6:
         est = remove_heading_offset(est, ref, np.ones(len(est), bool))
     total, heading, inclination = error_angles(est, ref)
 
     def deg(x: np.ndarray) -> float:
-        return math.degrees(math.sqrt(np.nanmean(x * x)))
+        return math.degrees(math.sqrt(float(np.mean(x * x))))
 
     return {"total": deg(total), "heading": deg(heading), "inclination": deg(inclination)}
 
@@ -221,8 +329,20 @@ def evaluate(paths: list[Path], names: list[str], dofs: list[int]) -> Iterator[d
         for dof in dofs:
             for name in (n for n in names if dof == 6 or uses_magnetometer(n)):
                 errors = rmse(run_filter(name, trial, dof), trial, dof)
-                yield {"trial": trial.name, "filter": name, "dof": dof,
-                       **{k: round(v, 4) for k, v in errors.items()}}
+                if errors is None:
+                    yield {"trial": trial.name, "filter": name, "dof": dof,
+                           "total": None, "heading": None, "inclination": None, "note": NOT_SCORABLE}
+                else:
+                    yield {"trial": trial.name, "filter": name, "dof": dof,
+                           **{k: round(v, 4) for k, v in errors.items()}}
+
+
+def result_line(r: dict) -> str:
+    """One result for the progress display."""
+    if r["total"] is None:
+        return f"{r['trial']} {r['filter']} {r['dof']}D: {r.get('note', NOT_SCORABLE)}"
+    return (f"{r['trial']} {r['filter']} {r['dof']}D: "
+            f"total {r['total']:.2f}  inclination {r['inclination']:.2f} deg")
 
 
 # ----------------------------------------------------------------- reporting
@@ -245,19 +365,38 @@ def markdown_table(results: list[dict]) -> str:
                  "|".join(["---"] * (len(trials) + 2))]
         for name in dict.fromkeys(r["filter"] for r in rows):
             values = [cell.get((name, t)) for t in trials]
-            mean = np.mean([v for v in values if v is not None])
+            scored = [v for v in values if v is not None]
+            mean = f"**{sum(scored) / len(scored):.3f}**" if scored else ""
             lines.append(f"{name} | " + " | ".join("" if v is None else f"{v:.2f}" for v in values)
-                         + f" | **{mean:.3f}**")
+                         + f" | {mean}")
         tables.append("\n".join(f"| {line} |" for line in lines))
     return "\n\n".join(tables)
 
 
+def check_readme(readme: str | Path) -> str:
+    """The text of a README whose results table ``--readme`` will rewrite; call it before
+    the evaluation runs, so a wrong file is said at once, not after the work.
+
+    It must be a regular UTF-8 text file holding the table markers, in a folder
+    where the rewritten file can be written.
+    """
+    path = Path(readme)
+    with open_input(path, "README", DatasetError) as f:
+        data = f.read()
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise DatasetError(f"{path} is not UTF-8 text (byte {e.start}); --readme rewrites a Markdown file") from None
+    if TABLE_BEGIN not in text or TABLE_END not in text or text.index(TABLE_BEGIN) > text.index(TABLE_END):
+        raise DatasetError(f"{path} has no {TABLE_BEGIN} ... {TABLE_END} markers to put the table between")
+    if not os.access(path.resolve().parent, os.W_OK) or not os.access(path, os.W_OK):
+        raise DatasetError(f"{path} cannot be rewritten: no permission to write it or its folder")
+    return text
+
+
 def write_readme_table(readme: str | Path, results: list[dict]) -> None:
     """Replace the table between the markers in ``readme`` (atomically)."""
-    path = Path(readme)
-    text = path.read_text()
-    if TABLE_BEGIN not in text or TABLE_END not in text:
-        raise DatasetError(f"{path} has no {TABLE_BEGIN} ... {TABLE_END} markers to put the table between")
+    text = check_readme(readme)
     before, rest = text.split(TABLE_BEGIN, 1)
     after = rest.split(TABLE_END, 1)[1]
-    atomic_write(path, f"{before}{TABLE_BEGIN}\n{markdown_table(results)}\n{TABLE_END}{after}")
+    atomic_write(Path(readme), f"{before}{TABLE_BEGIN}\n{markdown_table(results)}\n{TABLE_END}{after}")

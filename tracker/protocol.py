@@ -259,7 +259,7 @@ class Hello:
         for name in errors_field:
             if not isinstance(name, str) or name not in BoardError.__members__ or name == "NONE":
                 raise ValueError(f"'errors' holds {_brief(name)}; expected flag names from "
-                                 f"{', '.join(e.name for e in BoardError if e)}")
+                                 f"{', '.join(str(e.name) for e in BoardError if e)}")
             errors |= BoardError[name]
         return cls(_int_in(d, "protocol", byte), firmware, _int_in(d, "imu_whoami", byte),
                    _int_in(d, "mag_whoami", byte), _int_in(d, "rate_hz", range(1 << 16)),

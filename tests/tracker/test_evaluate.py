@@ -103,7 +103,7 @@ def armtracker(*args: str) -> subprocess.CompletedProcess:
 @pytest.mark.parametrize("args, words", [
     (["evaluate", "--dataset", "/nonexistent"], "no such dataset directory"),
     (["evaluate", "--dataset", ".", "--filter", "nope"], "holds no trials"),
-    (["fuse", "/nonexistent.npz", "--out", "/tmp/x.npz"], "not a readable"),
+    (["fuse", "/nonexistent.npz", "--out", "/tmp/x.npz"], "no such file: /nonexistent.npz"),
 ])
 def test_evaluate_and_fuse_bad_input_is_one_line(args, words):
     r = armtracker(*args)
