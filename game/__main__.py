@@ -5,6 +5,12 @@
 ``shots`` renders every screen to PNG, ``bench`` measures frame time and
 input latency, ``gestures-eval`` measures gesture recognition on simulated
 players through the whole pipeline.
+
+Numeric options are range-checked by the parser (the ranges are in
+``--help``); a refused command line is one line on stderr and exit 2.
+Ctrl-C, SIGTERM and SIGHUP end every command alike (:mod:`tracker.signals`):
+exit 128 + the signal's number (130, 143, 129); ``--headless`` first prints
+the report of the matches finished by then.
 """
 
 from __future__ import annotations
@@ -12,10 +18,22 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
 import sys
 
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")  # our messages, not pygame's banner
 from typing import Sequence
+
+from tracker import signals  # noqa: E402
+from tracker.options import Parser, Ranged  # noqa: E402
+
+# The ranges of numeric options (README, "energyball").
+SEED = Ranged(int, 0)
+MATCHES = Ranged(int, 1, 10_000)
+DURATION = Ranged(float, 0, 86_400, above=True)  # a match of up to a day of play
+WORKERS = Ranged(int, 1, 64)
+TRIALS = Ranged(int, 1, 10_000)
+GESTURES = Ranged(int, 1, 1_000)
 
 
 class UsageError(Exception):
@@ -117,6 +135,10 @@ def cmd_headless(args: argparse.Namespace) -> int:
     else:
         for key, value in report["summary"].items():
             print(f"{key:26s} {value}")
+    if report["interrupted"]:
+        print(f"energyball: {report['interrupted']}: stopped after {len(report['matches'])} of {len(jobs)} "
+              "matches; the report covers the finished ones", file=sys.stderr)
+        return 128 + signal.Signals[report["interrupted"]].value
     return 0
 
 
@@ -174,31 +196,10 @@ def cmd_gestures_eval(args: argparse.Namespace) -> int:
     return 0
 
 
-def _seed(text: str) -> int:
-    value = int(text)
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be a whole number of 0 or more, not {text}")
-    return value
-
-
-def _positive(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, not {text}")
-    return value
-
-
-def _seconds(text: str) -> float:
-    value = float(text)
-    if not (value > 0 and value < float("inf")):
-        raise argparse.ArgumentTypeError(f"must be a positive number of seconds, not {text}")
-    return value
-
-
 def build_parser() -> argparse.ArgumentParser:
     from .bot import DIFFICULTIES
 
-    parser = argparse.ArgumentParser(prog="energyball", description=(
+    parser = Parser(prog="energyball", description=(
         "The EnergyBall game: throw energy balls at zombies with your arm (a tracker board, "
         "or keyboard and mouse)."))
     parser.set_defaults(func=cmd_play)
@@ -206,15 +207,17 @@ def build_parser() -> argparse.ArgumentParser:
     source.add_argument("--keyboard", action="store_true", help="play with keyboard and mouse")
     source.add_argument("--virtual", action="store_true", help="play with a virtual board (simulated arm)")
     source.add_argument("--port", help="the board's serial port or pyserial URL (default: find one)")
-    parser.add_argument("--seed", type=_seed, default=0, help="seed of the zombie waves (and of the first match)")
+    parser.add_argument("--seed", type=SEED, default=0,
+                        help=f"seed of the zombie waves (and of the first match), {SEED.text} (0)")
     h = parser.add_argument_group("headless matches (a simulated player, no window)")
     h.add_argument("--headless", action="store_true", help="play simulated matches with a bot")
-    h.add_argument("--matches", type=_positive, help="how many matches, seeds S, S+1, ... (1)")
-    h.add_argument("--duration", type=_seconds, metavar="SEC", help="play time of a match at most (120)")
+    h.add_argument("--matches", type=MATCHES, help=f"how many matches, seeds S, S+1, ..., {MATCHES.text} (1)")
+    h.add_argument("--duration", type=DURATION, metavar="SEC",
+                   help=f"play time of a match at most, seconds, {DURATION.text} (120)")
     h.add_argument("--difficulty", choices=tuple(DIFFICULTIES), help="the bot's skill (normal)")
     h.add_argument("--profile", metavar="FILE.json", help="the simulated player (README lists the keys)")
     h.add_argument("--faults", metavar="SPEC", help="link faults, e.g. corrupt=0.01,drop=0.002,stall=0.5@20")
-    h.add_argument("--workers", type=_positive, help="processes to spread the matches over (1)")
+    h.add_argument("--workers", type=WORKERS, help=f"processes to spread the matches over, {WORKERS.text} (1)")
     h.add_argument("--endless", action="store_true",
                    help="zombies do no harm, so a match lasts its whole duration (soak runs)")
     h.add_argument("--render", action="store_true", help="draw every frame (dummy video driver)")
@@ -223,10 +226,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
     p = sub.add_parser("gestures-eval", help="measure gesture recognition on simulated players")
-    p.add_argument("--trials", type=_positive, default=20, help="simulated sessions (20)")
-    p.add_argument("--gestures", type=_positive, default=10, help="gestures per session (10)")
+    p.add_argument("--trials", type=TRIALS, default=20, help=f"simulated sessions, {TRIALS.text} (20)")
+    p.add_argument("--gestures", type=GESTURES, default=10, help=f"gestures per session, {GESTURES.text} (10)")
     # Given before or after the command alike: no default here to overwrite the main one.
-    p.add_argument("--seed", type=_seed, default=argparse.SUPPRESS)
+    p.add_argument("--seed", type=SEED, default=argparse.SUPPRESS, help=f"{SEED.text} (0)")
     p.add_argument("--profile", metavar="FILE.json", default=argparse.SUPPRESS,
                    help="the simulated player (README lists the keys)")
     p.add_argument("--envelope", action="store_true",
@@ -244,16 +247,24 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+def run(args: argparse.Namespace) -> int:
+    """Run the parsed command; a command line or file that cannot be used is one line on stderr, exit 1."""
     try:
         _check_options(args, getattr(args, "options", ()))
         return args.func(args)
     except UsageError as e:
         print(f"energyball: {e}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        return 130
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """The command line ``argv`` (None: this process's own, which then ends with the command)."""
+    args = build_parser().parse_args(argv)
+    with signals.interrupts(ignore_after=argv is None):
+        try:
+            return run(args)
+        except KeyboardInterrupt as e:  # Ctrl-C, SIGTERM or SIGHUP
+            return signals.exit_status(e)
 
 
 if __name__ == "__main__":

@@ -29,7 +29,9 @@ the same run after run and on any number of worker processes.
 from __future__ import annotations
 
 import math
+import multiprocessing
 import os
+import signal
 import pty
 import resource
 import statistics
@@ -37,7 +39,6 @@ import sys
 import tempfile
 import time
 import tty
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable
@@ -46,8 +47,11 @@ from mypy_extensions import mypyc_attr
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
+# Signals are ours (tracker.signals): SDL would otherwise take SIGINT and SIGTERM wherever they are left at
+# their defaults (a pool's worker) and turn them into a quit event that a headless match never reads.
+os.environ.setdefault("SDL_NO_SIGNAL_HANDLERS", "1")
 
-from tracker import compiled, protocol as P  # noqa: E402
+from tracker import compiled, protocol as P, signals  # noqa: E402
 from tracker.board import Faults  # noqa: E402
 from tracker.sim import Simulator  # noqa: E402
 from tracker.sim_board import SimBoard  # noqa: E402
@@ -317,22 +321,55 @@ def _report(config: MatchConfig, bot: Bot, board: SimBoard, source: WireInput, a
 
 def run_matches(configs: list[MatchConfig], workers: int = 1,
                 progress: Callable[[str], None] | None = None) -> dict:
-    """Play the matches (on ``workers`` processes); the report with per-match results and a summary."""
+    """Play the matches (on ``workers`` processes); the report with per-match results and a summary.
+
+    Ctrl-C, SIGTERM or SIGHUP (:mod:`tracker.signals`) ends the run early: the
+    match in play is dropped, and the report covers the matches finished by
+    then, with ``interrupted`` naming the signal (None when every match was played).
+    """
     wall0 = time.perf_counter()
     reports: list[dict] = []
+    interrupted: str | None = None
     if progress:
         progress(_build_note())
-    if workers > 1 and len(configs) > 1:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            for report in pool.map(run_match, configs):
-                reports.append(report)
-                _progress(progress, report, len(configs), len(reports))
-    else:
-        for config in configs:
-            reports.append(run_match(config, progress))
-            _progress(progress, reports[-1], len(configs), len(reports))
+    try:
+        if workers > 1 and len(configs) > 1:
+            _run_on_workers(configs, workers, reports, progress)
+        else:
+            for config in configs:
+                reports.append(run_match(config, progress))
+                _progress(progress, reports[-1], len(configs), len(reports))
+    except KeyboardInterrupt as e:
+        interrupted = signals.name_of(e)
     wall = time.perf_counter() - wall0
-    return {"matches": reports, "summary": summarise(reports, wall)}
+    return {"matches": reports, "summary": summarise(reports, wall), "interrupted": interrupted}
+
+
+def _run_on_workers(configs: list[MatchConfig], workers: int, reports: list[dict],
+                    progress: Callable[[str], None] | None) -> None:
+    """Play the matches on a pool of processes, appending each report in order as it comes.
+
+    The workers leave ending signals to this process (a Ctrl-C reaches the
+    whole process group), which stops them at once when it is interrupted.
+    """
+    pool = multiprocessing.Pool(workers, initializer=_worker_signals)
+    try:
+        for report in pool.imap(run_match, configs):
+            reports.append(report)
+            _progress(progress, report, len(configs), len(reports))
+        pool.close()
+    except BaseException:
+        pool.terminate()
+        raise
+    finally:
+        pool.join()
+
+
+def _worker_signals() -> None:
+    """In a worker: Ctrl-C is the parent's to handle; SIGTERM and SIGHUP (the parent's terminate) end it."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)
 
 
 def _build_note() -> str:

@@ -1,7 +1,13 @@
 """``armtracker``: the tracker's command line (also ``python -m tracker``).
 
 Every command that reports numbers prints them as JSON with ``--json``; every
-failure a user can cause is one line on stderr and a non-zero exit.
+failure a user can cause is one line on stderr and a non-zero exit (2 for a
+command line the parser refuses, 1 for anything else). Output paths are
+checked before the work starts (:func:`tracker.atomic.check_output`) and
+written atomically. Ctrl-C, SIGTERM and SIGHUP end every command alike
+(:mod:`tracker.signals`): ``record``, ``monitor``, ``replay`` and ``virtual``
+end normally (exit 0, the recording kept); the others exit 128 + the signal's
+number (130, 143, 129) leaving any previous output file as it was.
 """
 
 from __future__ import annotations
@@ -14,14 +20,23 @@ import time
 from pathlib import Path
 from typing import Callable, Iterator, Sequence
 
-from . import bench, protocol as P
+from . import bench, protocol as P, signals
+from .atomic import OutputError, check_output, discard_pending, same_output
 from .evaluate import DatasetError
 from .link import Link, LinkError, LinkSettings, find_boards, list_serial_ports
+from .options import Parser, Ranged
 from .recording import CsvRecorder, RawRecorder, RecordingError, Replay, decode_file
 
 EXIT_ERROR = 1
-EXIT_INTERRUPTED = 130
 STATUS_INTERVAL_S = 0.25
+
+# The ranges of numeric options (README, "armtracker").
+RATE = Ranged(int, 1, 1000)  # PROTOCOL.md sec. 6, SET_RATE: 1 <= rate_hz <= 1000 (tracker.board.MIN/MAX_RATE_HZ)
+BAUD = Ranged(int, 300, 2_000_000)  # the Metro Mini's CP2104 bridge: 300 bps to 2 Mbps (CP2104 data sheet sec. 6.1)
+SECONDS = Ranged(float, 0, above=True)
+SPEED = Ranged(float, 0.01, 1000)  # 100 times slower to 1000 times faster; --fast for no pacing at all
+PROBABILITY = Ranged(float, 0, 1)
+SEED = Ranged(int, 0)
 
 
 class UsageError(Exception):
@@ -36,8 +51,8 @@ def add_source_options(p: argparse.ArgumentParser) -> None:
     src = p.add_mutually_exclusive_group()
     src.add_argument("--port", help="serial port or pyserial URL (default: the first board found)")
     src.add_argument("--virtual", action="store_true", help="use a virtual board on a pty")
-    p.add_argument("--baud", type=int, help="baud rate (default: 115200, falling back to 9600)")
-    p.add_argument("--rate", type=int, default=200, help="samples per second to ask for (200)")
+    p.add_argument("--baud", type=BAUD, help=f"baud rate, {BAUD.text} (default: 115200, falling back to 9600)")
+    p.add_argument("--rate", type=RATE, default=200, help=f"samples per second to ask for, {RATE.text} (200)")
     p.add_argument("--mode", choices=["raw", "fused"], default="raw",
                    help="raw sensor counts, or the board's own fused orientation")
 
@@ -56,8 +71,8 @@ def open_source(args: argparse.Namespace, tap: Callable[[bytes], None] | None = 
         settings = LinkSettings(port, baud=args.baud, rate_hz=args.rate, mode=P.Mode[args.mode.upper()])
         link = Link(settings)
         link.tap = tap
+        stack.callback(link.close)  # before open: an interruption mid-handshake still stops its reader
         link.open()
-        stack.callback(link.close)
         yield link
 
 
@@ -201,36 +216,50 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     return 0
 
 
+def _record_outputs(args: argparse.Namespace) -> None:
+    """Check --raw and --csv before anything is opened (a UsageError or OutputError naming the path)."""
+    check_output(args.raw)
+    if args.csv:
+        check_output(args.csv)
+        if same_output(args.raw, args.csv):
+            raise UsageError(f"--raw {args.raw} and --csv {args.csv} name the same file: give two files")
+
+
 def cmd_record(args: argparse.Namespace) -> int:
+    _record_outputs(args)
     status = StatusLine()
     raw = RawRecorder(args.raw)
-    with open_source(args, tap=raw.write) as link:
-        legacy = link.health().legacy_text
-        header = {"created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "port": link.settings.port,
-                  "legacy_text": legacy, "text_order": link.settings.text_order,
-                  "hello": link.hello.to_json() if link.hello else None}
-        # The stream describes itself: the board's hello goes first.
-        raw.begin(header, P.encode_hello(link.hello) if link.hello and not legacy else b"")
-        table = CsvRecorder(args.csv, link.hello) if args.csv else None
-        end = _until(args.seconds)
-        try:
-            while time.monotonic() < end:
-                for s in link.drain():
-                    if table:
-                        table.write(s)
-                status.show(f"recording {args.raw}: {raw.bytes} bytes  " + _health_text(link))
-                time.sleep(0.05)
-        except KeyboardInterrupt:
-            pass
-        link.tap = None
-    status.done()
-    raw.close()
-    if table:
-        for s in link.drain():
-            table.write(s)
-        table.close()
-    rows = f", {table.rows} samples to {args.csv}" if table else ""
-    print(f"recorded {raw.bytes} bytes to {args.raw}{rows}", file=sys.stderr)
+    table: CsvRecorder | None = None
+    with contextlib.ExitStack() as ending:
+        with open_source(args, tap=raw.write) as link:
+            legacy = link.health().legacy_text
+            header = {"created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "port": link.settings.port,
+                      "legacy_text": legacy, "text_order": link.settings.text_order,
+                      "hello": link.hello.to_json() if link.hello else None}
+            # The stream describes itself: the board's hello goes first.
+            raw.begin(header, P.encode_hello(link.hello) if link.hello and not legacy else b"")
+            table = CsvRecorder(args.csv, link.hello) if args.csv else None
+            end = _until(args.seconds)
+            try:
+                while time.monotonic() < end:
+                    for s in link.drain():
+                        if table:
+                            table.write(s)
+                    status.show(f"recording {args.raw}: {raw.bytes} bytes  " + _health_text(link))
+                    time.sleep(0.05)
+            except KeyboardInterrupt:
+                pass  # Ctrl-C, SIGTERM or SIGHUP: the usual way to end a recording
+            # What was recorded is complete: from here a signal waits until it is kept.
+            ending.enter_context(signals.deferred())
+            link.tap = None
+        status.done()
+        raw.close()
+        if table:
+            for s in link.drain():
+                table.write(s)
+            table.close()
+        rows = f", {table.rows} samples to {args.csv}" if table else ""
+        print(f"recorded {raw.bytes} bytes to {args.raw}{rows}", file=sys.stderr)
     return 0
 
 
@@ -285,6 +314,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
 def cmd_evaluate(args: argparse.Namespace) -> int:
     from .evaluate import (evaluate, filter_names, find_trials, markdown_table, uses_magnetometer,
                            write_readme_table)
+    if args.readme:
+        _check_readme(args.readme)
     paths = find_trials(args.dataset)
     names = filter_names(args.filter)
     dofs = [args.dof] if args.dof else [6, 9]
@@ -303,8 +334,25 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_readme(path: str) -> None:
+    """The file ``evaluate --readme`` rewrites must exist, be UTF-8 text and have the table's markers."""
+    from .evaluate import TABLE_BEGIN, TABLE_END
+    check_output(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise UsageError(f"--readme {path}: no such file (it must exist and hold "
+                         f"{TABLE_BEGIN} ... {TABLE_END})") from None
+    except UnicodeDecodeError:
+        raise UsageError(f"--readme {path} is not UTF-8 text") from None
+    if TABLE_BEGIN not in text or TABLE_END not in text:
+        raise UsageError(f"--readme {path} has no {TABLE_BEGIN} ... {TABLE_END} markers "
+                         "to put the table between")
+
+
 def cmd_fuse(args: argparse.Namespace) -> int:
     from .fuse import fuse_file
+    check_output(args.out)
     n = fuse_file(args.input, args.filter, args.dof, args.out)
     print(f"wrote {n} orientations to {args.out}", file=sys.stderr)
     return 0
@@ -314,6 +362,8 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     from . import experiments
     run, plot = {"static-drift": (experiments.static_drift, experiments.plot_static_drift),
                  "finger-grasp": (experiments.finger_grasp, experiments.plot_finger_grasp)}[args.name]
+    if args.plot:
+        check_output(args.plot)
     result = run(progress=lambda text: print(text, file=sys.stderr, flush=True))
     if args.plot:
         try:
@@ -332,6 +382,8 @@ def cmd_virtual(args: argparse.Namespace) -> int:
     link = Path(args.link) if args.link else None
     if link and link.exists() and not link.is_symlink():
         raise UsageError(f"{link} exists and is not a symlink; choose another --link path")
+    if link and not link.parent.is_dir():
+        raise UsageError(f"--link {link}: the folder {link.parent} does not exist")
     with VirtualBoard(settings=settings, faults=faults, link=link) as board:
         print(f"virtual board on {board.port} (Ctrl-C to stop)", file=sys.stderr, flush=True)
         try:
@@ -354,22 +406,8 @@ def _wait(seconds: float | None) -> None:
 # ----------------------------------------------------------------- parser
 
 
-def _nonnegative(text: str) -> float:
-    v = float(text)
-    if not v >= 0:
-        raise argparse.ArgumentTypeError(f"must be a number >= 0, not {text}")
-    return v
-
-
-def _probability(text: str) -> float:
-    v = _nonnegative(text)
-    if v > 1:
-        raise argparse.ArgumentTypeError(f"must be between 0 and 1, not {text}")
-    return v
-
-
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="armtracker", description=(
+    parser = Parser(prog="armtracker", description=(
         "Read an EnergyBall sensor board (Metro Mini + MPU-9250 + flex sensor) over serial."))
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
@@ -379,13 +417,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("monitor", help="show the live stream: rate, loss, readings")
     add_source_options(p)
-    p.add_argument("--seconds", type=_nonnegative, help="stop after this long (default: Ctrl-C)")
+    p.add_argument("--seconds", type=SECONDS, help=f"stop after this long, {SECONDS.text} (default: Ctrl-C)")
     p.add_argument("--json", action="store_true", help="print a JSON summary at the end")
     p.set_defaults(func=cmd_monitor)
 
     p = sub.add_parser("record", help="record the raw byte stream (and decoded samples)")
     add_source_options(p)
-    p.add_argument("--seconds", type=_nonnegative, required=True)
+    p.add_argument("--seconds", type=SECONDS, required=True,
+                   help=f"how long to record, {SECONDS.text} (Ctrl-C ends it sooner, keeping what was recorded)")
     p.add_argument("--raw", required=True, metavar="OUT.bin", help="raw byte stream")
     p.add_argument("--csv", metavar="OUT.csv", help="decoded samples, one row each")
     p.set_defaults(func=cmd_record)
@@ -398,7 +437,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("replay", help="replay a .bin or .csv recording through the decoder")
     p.add_argument("input", metavar="IN")
     p.add_argument("--fast", action="store_true", help="as fast as possible, not in real time")
-    p.add_argument("--speed", type=float, default=1.0, help="real-time speed factor (1.0)")
+    p.add_argument("--speed", type=SPEED, default=1.0, help=f"real-time speed factor, {SPEED.text} (1.0)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_replay)
 
@@ -430,28 +469,40 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("virtual", help="serve a virtual board on a pty for other programs")
     p.add_argument("--link", help="stable path to create for the pty (a symlink)")
-    p.add_argument("--rate", type=int, default=200)
+    p.add_argument("--rate", type=RATE, default=200, help=f"samples per second, {RATE.text} (200)")
     p.add_argument("--legacy", action="store_true", help="act like the paper's sketch (text, 9600 baud)")
-    p.add_argument("--corrupt", type=_probability, default=0.0, help="per-byte corruption rate")
-    p.add_argument("--drop", type=_probability, default=0.0, help="per-byte drop rate")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--seconds", type=_nonnegative)
+    p.add_argument("--corrupt", type=PROBABILITY, default=0.0,
+                   help=f"per-byte corruption rate, {PROBABILITY.text} (0)")
+    p.add_argument("--drop", type=PROBABILITY, default=0.0, help=f"per-byte drop rate, {PROBABILITY.text} (0)")
+    p.add_argument("--seed", type=SEED, default=0, help=f"seed of the faults, {SEED.text} (0)")
+    p.add_argument("--seconds", type=SECONDS, help=f"stop after this long, {SECONDS.text} (default: Ctrl-C)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_virtual)
     return parser
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+def run(args: argparse.Namespace) -> int:
+    """Run the parsed command; a failure the user can cause is one line on stderr and exit 1."""
     try:
         return args.func(args)
-    except (LinkError, RecordingError, DatasetError, UsageError) as e:
+    except (LinkError, RecordingError, DatasetError, UsageError, OutputError) as e:
         print(f"armtracker: {e}", file=sys.stderr)
-    except OSError as e:  # e.g. an output file in a folder that does not exist
-        print(f"armtracker: {e.filename or ''}: {e.strerror or e}", file=sys.stderr)
-    except KeyboardInterrupt:
-        return EXIT_INTERRUPTED
+    except OSError as e:  # e.g. an input file that cannot be read
+        print(f"armtracker: {e.filename + ': ' if e.filename else ''}{e.strerror or e}", file=sys.stderr)
     return EXIT_ERROR
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """The command line ``argv`` (None: this process's own, which then ends with the command)."""
+    args = build_parser().parse_args(argv)
+    with signals.interrupts(ignore_after=argv is None):
+        try:
+            try:
+                return run(args)
+            finally:
+                discard_pending()  # a file never completed leaves no temporary behind
+        except KeyboardInterrupt as e:  # Ctrl-C, SIGTERM or SIGHUP where ending early is not normal
+            return signals.exit_status(e)
 
 
 if __name__ == "__main__":

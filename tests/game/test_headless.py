@@ -89,8 +89,8 @@ def test_command_line_prints_json_and_progress(tmp_path):
     (["--faults", "melt=1"], "unknown fault 'melt'"),
     (["--faults", "corrupt=0.1,corrupt=0.2"], "given twice"),
     (["--difficulty", "insane"], "invalid choice"),
-    (["--duration", "nan"], "positive number of seconds"),
-    (["--seed", "-1"], "a whole number of 0 or more"),
+    (["--duration", "nan"], "--duration: must be a number above 0"),
+    (["--seed", "-1"], "--seed: must be a whole number of at least 0"),
     (["--port", "/dev/null"], "--port do not go with --headless"),
     (["gestures-eval"], "--headless do not go with the gestures-eval command"),
 ])

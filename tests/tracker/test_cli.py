@@ -122,4 +122,4 @@ def test_a_file_that_is_not_a_recording(tmp_path):
 
 def test_an_output_folder_that_does_not_exist(tmp_path):
     r = armtracker("record", "--virtual", "--seconds", "0.2", "--raw", str(tmp_path / "no" / "x.bin"))
-    assert_clear_error(r, "No such file or directory")
+    assert_clear_error(r, "does not exist")

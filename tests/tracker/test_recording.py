@@ -109,7 +109,7 @@ def test_damaged_header_and_bad_csv_rows_are_named(tmp_path):
         read_csv(tmp_path / "other.csv")
 
 
-def test_atomic_file_leaves_the_old_file_on_error_and_commits_on_interrupt(tmp_path):
+def test_atomic_file_leaves_the_old_file_on_error_and_on_interrupt(tmp_path):
     target = tmp_path / "keep.json"
     atomic_write(target, json.dumps({"v": 1}))
     with pytest.raises(RuntimeError):
@@ -119,9 +119,9 @@ def test_atomic_file_leaves_the_old_file_on_error_and_commits_on_interrupt(tmp_p
     assert json.loads(target.read_text()) == {"v": 1}
     with pytest.raises(KeyboardInterrupt):
         with AtomicFile(target, "w") as f:
-            f.file.write('{"v": 3}')
+            f.file.write('{"v": 3, "cut off')  # Ctrl-C mid-write: never committed (issue 13, case 1)
             raise KeyboardInterrupt
-    assert json.loads(target.read_text()) == {"v": 3}
+    assert json.loads(target.read_text()) == {"v": 1}
     assert [p.name for p in tmp_path.iterdir()] == ["keep.json"]  # no temporary left behind
 
 
