@@ -282,6 +282,22 @@ def test_fuse_refuses_equal_and_backward_times_naming_the_line(tmp_path):
     assert snapshot(tmp_path) == before
 
 
+def test_fuse_refuses_a_bin_whose_clock_stands_still_naming_the_sample(tmp_path):
+    """Two samples stamped alike (seq + 1, the same t_us): not a restart, and no time step to fuse with."""
+    samples = run_samples(6, 0)
+    samples[3] = samples[3]._replace(t_us=samples[2].t_us)
+    path = bin_file(tmp_path / "still.bin", [frames(samples)])
+    assert_refused(armtracker(tmp_path, "fuse", str(path), "--out", str(tmp_path / "q.npz")),
+                   str(path), "sample 4 (t 0.010000 s) is not after the one before it")
+    assert not (tmp_path / "q.npz").exists()
+
+
+def test_a_csv_line_that_is_not_utf8_is_named(tmp_path):
+    path = csv_file(tmp_path / "latin.csv", csv_rows(run_samples(4, 0)))
+    path.write_bytes(path.read_bytes() + b"caf\xe9\n")
+    assert_refused(armtracker(tmp_path, "decode", str(path)), str(path), "line 8 is not UTF-8 text")
+
+
 def test_a_csv_whose_runs_go_back_is_refused(tmp_path):
     rows = csv_rows(run_samples(3, 0), run=1) + csv_rows(run_samples(3, 0), run=0)
     path = csv_file(tmp_path / "r.csv", rows)
