@@ -15,6 +15,11 @@ the report of the matches finished by then.
 
 from __future__ import annotations
 
+if __name__ == "__main__":  # run as a program: a signal while it starts up ends it without a traceback
+    from tracker import signals as _startup
+
+    _startup.exit_quietly()
+
 import argparse
 import json
 import os

@@ -12,6 +12,11 @@ number (130, 143, 129) leaving any previous output file as it was.
 
 from __future__ import annotations
 
+if __name__ == "__main__":  # run as a program: a signal while it starts up ends it without a traceback
+    from . import signals as _startup
+
+    _startup.exit_quietly()
+
 import argparse
 import contextlib
 import json
@@ -312,10 +317,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
-    from .evaluate import (evaluate, filter_names, find_trials, markdown_table, uses_magnetometer,
-                           write_readme_table)
-    if args.readme:
-        _check_readme(args.readme)
+    from .evaluate import (check_readme, evaluate, filter_names, find_trials, markdown_table,
+                           uses_magnetometer, write_readme_table)
+    if args.readme:  # said at once, not after the whole evaluation
+        check_output(args.readme)
+        check_readme(args.readme)
     paths = find_trials(args.dataset)
     names = filter_names(args.filter)
     dofs = [args.dof] if args.dof else [6, 9]
@@ -332,22 +338,6 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         print(f"updated the results table in {args.readme}", file=sys.stderr)
     print(json.dumps({"results": results}) if args.json else markdown_table(results))
     return 0
-
-
-def _check_readme(path: str) -> None:
-    """The file ``evaluate --readme`` rewrites must exist, be UTF-8 text and have the table's markers."""
-    from .evaluate import TABLE_BEGIN, TABLE_END
-    check_output(path)
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise UsageError(f"--readme {path}: no such file (it must exist and hold "
-                         f"{TABLE_BEGIN} ... {TABLE_END})") from None
-    except UnicodeDecodeError:
-        raise UsageError(f"--readme {path} is not UTF-8 text") from None
-    if TABLE_BEGIN not in text or TABLE_END not in text:
-        raise UsageError(f"--readme {path} has no {TABLE_BEGIN} ... {TABLE_END} markers "
-                         "to put the table between")
 
 
 def cmd_fuse(args: argparse.Namespace) -> int:
@@ -385,8 +375,8 @@ def cmd_virtual(args: argparse.Namespace) -> int:
     if link and not link.parent.is_dir():
         raise UsageError(f"--link {link}: the folder {link.parent} does not exist")
     with VirtualBoard(settings=settings, faults=faults, link=link) as board:
-        print(f"virtual board on {board.port} (Ctrl-C to stop)", file=sys.stderr, flush=True)
         try:
+            print(f"virtual board on {board.port} (Ctrl-C to stop)", file=sys.stderr, flush=True)
             _wait(args.seconds)
         except KeyboardInterrupt:
             pass

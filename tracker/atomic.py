@@ -94,6 +94,13 @@ def same_output(a: str | os.PathLike, b: str | os.PathLike) -> bool:
         return False
 
 
+def _umask() -> int:
+    """The process's umask (read by setting it, so set back at once)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return umask
+
+
 _PENDING: set["AtomicFile"] = set()  # temporary files neither committed nor discarded yet
 
 
@@ -111,18 +118,20 @@ class AtomicFile:
     def __init__(self, path: str | os.PathLike, mode: str = "wb", newline: str | None = None) -> None:
         self.shown = os.fspath(path)  # as the user wrote it, for messages
         self.path = check_output(path)
-        with deferred():  # a temporary file is known to _PENDING from the moment it exists
+        with deferred():  # a temporary file, once it exists, is open and known to _PENDING
             try:
                 fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".part", dir=self.path.parent)
             except OSError as e:
                 raise OutputError(f"cannot write {self.shown}: {e.strerror or e}") from None
             self._tmp = Path(tmp)
+            try:
+                os.chmod(fd, 0o666 & ~_umask())  # mkstemp makes 0600; a saved file gets the usual mode
+                self.file: IO = os.fdopen(fd, mode, newline=newline) if "b" not in mode else os.fdopen(fd, mode)
+            except OSError as e:
+                os.close(fd)
+                self._tmp.unlink(missing_ok=True)
+                raise OutputError(f"cannot write {self.shown}: {e.strerror or e}") from None
             _PENDING.add(self)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(fd, 0o666 & ~umask)  # mkstemp makes 0600; a saved file gets the usual mode
-        self.file: IO = os.fdopen(fd, mode, newline=newline) if "b" not in mode \
-            else os.fdopen(fd, mode)
 
     def commit(self) -> None:
         """Flush to disk and rename over the target; a signal meanwhile waits until it is done."""

@@ -25,6 +25,16 @@ class Parser(argparse.ArgumentParser):
         sys.stderr.write(f"{self.prog}: {message} (see {self.prog} --help)\n")
         sys.exit(EXIT_USAGE)
 
+    def parse_known_args(self, args=None, namespace=None):  # type: ignore[no-untyped-def]
+        """argparse's, and an error for a value its type never saw: Python 3.11's argparse turns
+        ``--rate=--`` into an empty list without calling the option's type."""
+        parsed, extras = super().parse_known_args(args, namespace)
+        for action in self._actions:
+            if isinstance(action.type, Ranged) and isinstance(getattr(parsed, action.dest, None), list):
+                self.error(f"argument {'/'.join(action.option_strings)}: expected one value, "
+                           f"{action.type.text}")
+        return parsed, extras
+
 
 SHOWN_CHARS = 40  # of a refused value, in the message
 
