@@ -246,16 +246,17 @@ def cmd_record(args: argparse.Namespace) -> int:
             table = CsvRecorder(args.csv, link.hello) if args.csv else None
             end = _until(args.seconds)
             try:
-                while time.monotonic() < end:
-                    for s in link.drain():
-                        if table:
-                            table.write(s)
-                    status.show(f"recording {args.raw}: {raw.bytes} bytes  " + _health_text(link))
-                    time.sleep(0.05)
+                try:
+                    while time.monotonic() < end:
+                        for s in link.drain():
+                            if table:
+                                table.write(s)
+                        status.show(f"recording {args.raw}: {raw.bytes} bytes  " + _health_text(link))
+                        time.sleep(0.05)
+                finally:  # what was recorded is complete: from here a signal waits until it is kept
+                    ending.enter_context(signals.deferred())
             except KeyboardInterrupt:
-                pass  # Ctrl-C, SIGTERM or SIGHUP: the usual way to end a recording
-            # What was recorded is complete: from here a signal waits until it is kept.
-            ending.enter_context(signals.deferred())
+                pass  # Ctrl-C, SIGTERM or SIGHUP: the usual way to end a recording (later ones are ignored)
             link.tap = None
         status.done()
         raw.close()

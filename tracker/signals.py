@@ -100,8 +100,8 @@ def _handlers(handler: Callable[[int, FrameType | None], None],
                 signal.signal(s, handler)
         yield saved
     finally:
-        for s, old in saved.items():
-            signal.signal(s, signal.SIG_IGN if ignore_after else old)
+        for signum, before in saved.items():
+            signal.signal(signum, signal.SIG_IGN if ignore_after else before)
 
 
 @contextlib.contextmanager
