@@ -41,6 +41,16 @@ TRIALS = Ranged(int, 1, 10_000)
 GESTURES = Ranged(int, 1, 1_000)
 
 
+def _port(text: str) -> str:
+    """``--port``: a name the saved settings can hold (the input choice is remembered)."""
+    from game.preferences import Preferences
+    try:
+        Preferences(input=text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e).replace("input must be", "must be", 1)) from None
+    return text
+
+
 class UsageError(Exception):
     """A command line or input file that cannot be used, worded for the user."""
 
@@ -211,7 +221,7 @@ def build_parser() -> argparse.ArgumentParser:
     source = parser.add_mutually_exclusive_group()
     source.add_argument("--keyboard", action="store_true", help="play with keyboard and mouse")
     source.add_argument("--virtual", action="store_true", help="play with a virtual board (simulated arm)")
-    source.add_argument("--port", help="the board's serial port or pyserial URL (default: find one)")
+    source.add_argument("--port", type=_port, help="the board's serial port or pyserial URL (default: find one)")
     parser.add_argument("--seed", type=SEED, default=0,
                         help=f"seed of the zombie waves (and of the first match), {SEED.text} (0)")
     h = parser.add_argument_group("headless matches (a simulated player, no window)")

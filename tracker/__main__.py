@@ -30,13 +30,13 @@ from .atomic import OutputError, check_output, discard_pending, same_output
 from .evaluate import DatasetError
 from .link import Link, LinkError, LinkSettings, find_boards, list_serial_ports
 from .options import Parser, Ranged
-from .recording import CsvRecorder, RawRecorder, RecordingError, Replay, decode_file
+from .recording import CsvRecorder, RawRecorder, RecordingError, Replay, summarize
 
 EXIT_ERROR = 1
 STATUS_INTERVAL_S = 0.25
 
 # The ranges of numeric options (README, "armtracker").
-RATE = Ranged(int, 1, 1000)  # PROTOCOL.md sec. 6, SET_RATE: 1 <= rate_hz <= 1000 (tracker.board.MIN/MAX_RATE_HZ)
+RATE = Ranged(int, P.MIN_RATE_HZ, P.MAX_RATE_HZ)  # PROTOCOL.md sec. 6, SET_RATE
 BAUD = Ranged(int, 300, 2_000_000)  # the Metro Mini's CP2104 bridge: 300 bps to 2 Mbps (CP2104 data sheet sec. 6.1)
 SECONDS = Ranged(float, 0, above=True)
 SPEED = Ranged(float, 0.01, 1000)  # 100 times slower to 1000 times faster; --fast for no pacing at all
@@ -270,24 +270,12 @@ def cmd_record(args: argparse.Namespace) -> int:
 
 
 def cmd_decode(args: argparse.Namespace) -> int:
-    samples, replay = decode_file(args.input)
-    st = replay.stats
-    report = {"packets": st.frames, "samples": len(samples), "crc_errors": st.crc_errors,
-              "dropped": st.dropped, "bytes_skipped": st.bytes_skipped,
-              "hello": replay.hello.to_json() if replay.hello else None,
-              "duration_s": samples[-1].t - samples[0].t}
-    if args.json:
-        print(json.dumps(report))
-    else:
-        print(f"{args.input}: {st.frames} packets, {len(samples)} samples over "
-              f"{report['duration_s']:.2f} s, {st.dropped} dropped, {st.crc_errors} CRC errors, "
-              f"{st.bytes_skipped} bytes skipped")
+    summary = summarize(args.input)
+    print(json.dumps(summary.to_json()) if args.json else summary.text())
     return 0
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    if not Path(args.input).is_file():
-        raise RecordingError(f"no such file: {args.input}")
     replay = Replay(Path(args.input), realtime=not args.fast, speed=args.speed)
     status = StatusLine()
     n, last = 0, None
@@ -302,7 +290,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
         raise RecordingError(f"{args.input} is not an EnergyBall recording: no samples found in it")
     st = replay.stats
     report = {"samples": n, "crc_errors": st.crc_errors, "dropped": st.dropped,
-              "bytes_skipped": st.bytes_skipped, "last": sample_json(last)}
+              "bytes_skipped": st.bytes_skipped, "board_restarts": len(replay.runs) - 1,
+              "last": sample_json(last)}
     print(json.dumps(report) if args.json else f"replayed {n} samples from {args.input}")
     return 0
 
@@ -319,7 +308,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
     from .evaluate import (check_readme, evaluate, filter_names, find_trials, markdown_table,
-                           uses_magnetometer, write_readme_table)
+                           result_line, uses_magnetometer, write_readme_table)
     if args.readme:  # said at once, not after the whole evaluation
         check_output(args.readme)
         check_readme(args.readme)
@@ -332,8 +321,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     results = []
     for r in evaluate(paths, names, dofs):
         results.append(r)
-        print(f"[{len(results)}/{total}] {r['trial']} {r['filter']} {r['dof']}D: "
-              f"total {r['total']:.2f}  inclination {r['inclination']:.2f} deg", file=sys.stderr)
+        print(f"[{len(results)}/{total}] {result_line(r)}", file=sys.stderr)
     if args.readme:
         write_readme_table(args.readme, results)
         print(f"updated the results table in {args.readme}", file=sys.stderr)

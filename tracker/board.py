@@ -37,7 +37,6 @@ from .motion import MotionSource, SensorReading
 MPU9250_WHOAMI = 0x71
 AK8963_WHOAMI = 0x48
 FIRMWARE_VERSION = "1.0.0"
-MIN_RATE_HZ, MAX_RATE_HZ = 1, 1000
 LEGACY_RATE_HZ = 20  # a 40-byte text line at 9600 baud leaves room for ~24 lines/s
 CATCH_UP_S = 0.5  # the longest hiccup of the host process whose samples are still sent late, not lost
 _BAUD_CONSTANTS = {getattr(termios, f"B{b}"): b for b in
@@ -237,10 +236,20 @@ class VirtualBoard:
         with self._lock:
             if self._fds is None:
                 return
+            ours = os.ttyname(self._fds[1])
             for fd in self._fds:
                 os.close(fd)
             self._fds = None
-            self.link.unlink(missing_ok=True)
+            self._unlink_if_ours(ours)
+
+    def _unlink_if_ours(self, tty_path: str) -> None:
+        """Remove the link if it still points at our pty: a path someone else has
+        since put there (another virtual board, a user's file) is left alone."""
+        try:
+            if os.readlink(self.link) == tty_path:
+                self.link.unlink()
+        except OSError:
+            pass  # gone already, or not a symlink: not ours to remove
 
     def plug_in(self) -> None:
         """Plug in: a new pty appears behind the link and the board powers up."""
@@ -322,7 +331,7 @@ class VirtualBoard:
         elif c.type == P.FrameType.STOP:
             st.streaming = False
         elif c.type == P.FrameType.SET_RATE:
-            if MIN_RATE_HZ <= c.arg <= MAX_RATE_HZ:
+            if P.MIN_RATE_HZ <= c.arg <= P.MAX_RATE_HZ:
                 self._retime(c.arg)
             else:
                 status = P.AckStatus.BAD_ARGUMENT

@@ -39,7 +39,7 @@ ACC_FS_G = (2, 4, 8, 16)  # full-scale code -> +-g (MPU-9250 ACCEL_FS_SEL)
 GYR_FS_DPS = (250, 500, 1000, 2000)  # full-scale code -> +-deg/s (GYRO_FS_SEL)
 MAG_UT_PER_COUNT = 0.15  # AK8963 in 16-bit output mode
 FLEX_ADC_MASK = 0x03FF  # 10-bit ADC
-MAX_RATE_HZ = 1000  # the fastest rate SET_RATE accepts (PROTOCOL.md sec. 6)
+MIN_RATE_HZ, MAX_RATE_HZ = 1, 1000  # the rates SET_RATE accepts (PROTOCOL.md sec. 6)
 
 
 class FrameType(IntEnum):
@@ -544,7 +544,7 @@ def board_restarted(last_us: int, last_seq: int, t_us: int, seq: int, hello_betw
     RESET, after the sample (``last_us``, ``last_seq``), rather than from the same power-up.
 
     Within one power-up the device clock only advances, wrapping modulo 2^32
-    (PROTOCOL.md sec. 4), and ``seq`` counts samples taken on the sampling grid
+    (PROTOCOL.md sec. 4, the rule written out in sec. 9.4), and ``seq`` counts samples taken on the sampling grid
     (sec. 7.3-7.4) at no more than :data:`MAX_RATE_HZ` (sec. 6); at power-up and
     after RESET ``seq`` is 0, the clock starts again and a HELLO is sent (sec. 7.1).
     So a sample starts a new power-up when

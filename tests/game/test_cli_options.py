@@ -99,3 +99,11 @@ def test_bad_values_are_refused_by_the_real_command(tmp_path, argv, option):
     r = run("game", *argv, home=tmp_path)
     one_clear_line(r, option, argv[argv.index(option) + 1], code=2)
     assert list(tmp_path.iterdir()) == []  # nothing ran: not even the game's config folder
+
+
+@pytest.mark.parametrize("port", ["p" * 300, "a\tb", ""])
+def test_a_port_the_settings_cannot_hold_is_refused_by_the_real_command(tmp_path, port):
+    """The input choice is saved in settings.json, whose ``input`` is 1-200 printable characters."""
+    r = run("game", "--port", port, home=tmp_path)
+    one_clear_line(r, "--port", "1 to 200 printable characters", code=2)
+    assert list(tmp_path.iterdir()) == []

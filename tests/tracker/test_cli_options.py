@@ -100,10 +100,14 @@ def test_help_says_each_range(command, needs, option, kind, low, high, above, ca
     assert said in text, text
 
 
-def test_the_rate_range_is_the_boards():
-    from tracker.board import MAX_RATE_HZ, MIN_RATE_HZ
+def test_the_rate_range_is_the_protocols():
+    """PROTOCOL.md sec. 6: SET_RATE takes "1 <= rate_hz <= 1000"; the option says the same."""
+    import re
+    from pathlib import Path
+    spec = (Path(__file__).resolve().parents[2] / "firmware" / "PROTOCOL.md").read_text()
+    low, high = map(int, re.search(r"if (\d+) <= rate_hz <= (\d+)", spec).groups())
     rates = {o[3:6] for o in OPTIONS if o[2] == "--rate"}
-    assert rates == {(int, MIN_RATE_HZ, MAX_RATE_HZ)}
+    assert rates == {(int, low, high)}
 
 
 @pytest.mark.parametrize("argv, option", [

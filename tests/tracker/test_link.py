@@ -179,3 +179,19 @@ def test_dropped_bytes_show_as_sequence_gaps_and_a_stall_as_silence():
     assert silent_for >= 0.25
     # The stalled board took no samples: the device clock jumps by the stall.
     assert max(b.t - a.t for a, b in zip(got, got[1:])) >= 0.35
+
+
+def test_a_pulled_cable_removes_only_its_own_link(tmp_path):
+    """The link goes with the pty it names; a path since taken by another program stays."""
+    link = tmp_path / "ttyARM"
+    board = VirtualBoard(link=link).start()
+    assert os.path.realpath(link).startswith("/dev/pts/")
+    board.pull_cable()
+    assert not link.exists() and not link.is_symlink()
+    board.plug_in()
+    other = tmp_path / "someone-elses"
+    other.write_text("not ours")
+    link.unlink()
+    link.symlink_to(other)
+    board.stop()
+    assert link.is_symlink() and link.read_text() == "not ours"
