@@ -159,6 +159,8 @@ def cmd_headless(args: argparse.Namespace) -> int:
 
 def cmd_shots(args: argparse.Namespace) -> int:
     from .showcase import shots
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise UsageError(f"--out {args.out} is not a folder: the screenshots go into a folder, one PNG each")
     try:
         written = shots(args.out)
     except OSError as e:  # the folder cannot be made or written

@@ -20,6 +20,8 @@ os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
 import numpy as np  # noqa: E402
 import pygame  # noqa: E402
 
+from tracker.atomic import AtomicFile  # noqa: E402
+
 from .app import App, Calibration, GameOver, Menu, Pause, Play, Settings  # noqa: E402
 from .arena_model import Controls, Zombie, ZombieState  # noqa: E402
 from .preferences import Preferences  # noqa: E402
@@ -77,7 +79,8 @@ def shots(out: str | os.PathLike) -> list[Path]:
         def save(name: str) -> None:
             app.screen.draw(app.surface)
             path = folder / f"{name}.png"
-            pygame.image.save(app.surface, str(path))
+            with AtomicFile(path) as f:  # a shot cut off half-way never replaces a good one
+                pygame.image.save(app.surface, f.file, path.name)
             written.append(path)
 
         app.frame([], 1 / 60)

@@ -187,6 +187,18 @@ def test_shots_into_a_folder_that_cannot_be_made_is_one_clear_line():
     assert "cannot write the screenshots" in r.stderr
 
 
+def test_shots_onto_a_file_is_refused_and_the_file_kept(tmp_path):
+    import subprocess
+    import sys
+
+    kept = tmp_path / "notes.txt"
+    kept.write_text("mine")
+    r = subprocess.run([sys.executable, "-m", "game", "shots", "--out", str(kept)],
+                       capture_output=True, text=True, timeout=120, env={**os.environ, "SDL_VIDEODRIVER": "dummy"})
+    assert r.returncode == 1 and r.stderr.count("\n") == 1 and f"{kept} is not a folder" in r.stderr
+    assert kept.read_text() == "mine" and sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+
+
 class _ShakyHoldTracker:
     """A board whose arm hangs still, but whose hold the bias estimate refuses (say, a turn about the vertical)."""
 
