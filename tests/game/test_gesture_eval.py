@@ -99,7 +99,7 @@ def energyball(*args):
 
 @pytest.mark.parametrize("content, words", [('{"mount_roll": 3}', "unknown key 'mount_roll'"),
                                             ('{"speed": -1}', "speed must be"),
-                                            ("{not json", "bad JSON")])
+                                            ("{not json", "not valid JSON")])
 def test_a_bad_profile_is_one_clear_line(tmp_path, content, words):
     path = tmp_path / "p.json"
     path.write_text(content)
