@@ -42,8 +42,10 @@ import json
 import math
 import os
 import re
+import stat
 from collections import deque
-from dataclasses import Field, dataclass, field, fields
+from dataclasses import Field, dataclass, field, fields, replace
+from datetime import datetime
 from pathlib import Path
 from typing import NamedTuple, Sequence
 
@@ -54,7 +56,7 @@ from numpy.typing import ArrayLike, NDArray
 from .atomic import atomic_write
 from .lowpass import LowPass2
 from . import quat
-from .protocol import RawSample
+from .protocol import Hello, RawSample
 from .userjson import JSONInputError, read_json
 
 Array = NDArray[np.float64]
@@ -175,6 +177,11 @@ class RestDetector:
     def rest(self) -> bool:
         """Whether the last sample was at rest."""
         return self._state.rest
+
+    @property
+    def still_for(self) -> float:
+        """Seconds the samples have been still (0 after a sample that was not)."""
+        return self._state.still_for
 
     @property
     def gyr_lp(self) -> tuple[float, float, float] | None:
@@ -618,7 +625,7 @@ class PoseParams:
 
     ``gravity``: the norm every calibrated pose should have, m/s^2. ``max_tilt``: an
     axis pose may lean this far (rad) from its axis. ``min_samples``: samples a pose
-    needs. ``rest``: the stillness thresholds (see :func:`_motion`).
+    needs. ``rest``: the stillness thresholds (see :func:`window_motion`).
     """
 
     gravity: float = GRAVITY
@@ -645,14 +652,14 @@ class SixPoseResult:
     residual: float
 
 
-def _label(mean: Array) -> tuple[str, float]:
+def pose_label(mean: Array) -> tuple[str, float]:
     """Which axis points up in a pose, and how far (rad) the pose leans from it."""
     axis = int(np.argmax(np.abs(mean)))
     cos_tilt = abs(mean[axis]) / np.linalg.norm(mean)
     return ("+" if mean[axis] > 0 else "-") + "xyz"[axis], math.acos(min(1.0, cos_tilt))
 
 
-def _motion(gyr: Array, acc: Array, p: RestParams) -> str | None:
+def window_motion(gyr: Array, acc: Array, p: RestParams) -> str | None:
     """Why a window of samples is not still, or None.
 
     The window form of VQF's rest test: every sample must lie within the rest
@@ -676,7 +683,7 @@ def _pose_problem(poses: Sequence[Pose], first: int, p: PoseParams) -> str | Non
             return f"pose {number} has too few samples; hold each pose for a second or two"
         if not (np.all(np.isfinite(pose.acc)) and np.all(np.isfinite(pose.gyr))):
             return f"pose {number} has missing or non-finite readings; record it again"
-        moved = _motion(pose.gyr, pose.acc, p.rest)
+        moved = window_motion(pose.gyr, pose.acc, p.rest)
         if moved:
             return f"pose {number} was not still: {moved}; hold it still and record it again"
     return None
@@ -686,7 +693,7 @@ def _label_problem(means: Sequence[Array], p: PoseParams) -> str | None:
     """Why the axis poses are not one each of +x, -x, +y, -y, +z, -z (held flat), or None."""
     seen: dict[str, int] = {}
     for number, mean in enumerate(means, start=1):
-        label, tilt = _label(mean)
+        label, tilt = pose_label(mean)
         if tilt > p.max_tilt:
             return (f"pose {number} leans {tilt / DEG:.0f} deg from its nearest axis ({label} up); "
                     f"rest the board flat on one face (under {p.max_tilt / DEG:.0f} deg)")
@@ -708,7 +715,7 @@ def _initial_guess(means: Sequence[Array], g: float) -> tuple[Array, Array]:
     (u_i + d_i) / 2 and scale_i = 2 g / (u_i - d_i) (exact for level poses; the fit
     in :func:`_fit` removes the error that tilted poses leave).
     """
-    by_label = {_label(m)[0]: m for m in means}
+    by_label = {pose_label(m)[0]: m for m in means}
     up = np.array([by_label["+" + a][i] for i, a in enumerate("xyz")])
     down = np.array([by_label["-" + a][i] for i, a in enumerate("xyz")])
     return (up + down) / 2, np.diag(2 * g / (up - down))
@@ -797,6 +804,76 @@ def six_pose_calibration(poses: Sequence[Pose], extra: Sequence[Pose] = (),
 FORMAT = "energyball board calibration"
 VERSION = 1
 _BOARD_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,79}")
+# The maker's procedures and the fields each fills (``armtracker calibrate accel|mag``, the game's
+# Board setup); saving one keeps the other's fields. In the order they are shown.
+PROCEDURES: dict[str, tuple[str, ...]] = {
+    "accel": ("acc_offset", "acc_scale", "acc_misalignment"),
+    "mag": ("mag_hard_iron", "mag_soft_iron"),
+}
+PROCEDURE_TITLES: dict[str, str] = {"accel": "accelerometer", "mag": "magnetometer"}
+_FIGURE_NAME = re.compile(r"[a-z][a-z0-9_]{0,39}")
+MAX_DAMAGED_COPIES = 20  # <name>.damaged, <name>.damaged.2, ... (then a save is refused)
+
+
+@mypyc_attr(native_class=False)  # plain even when compiled: frozen, deep-copied with its owner
+@dataclass(frozen=True)
+class ProcedureRecord:
+    """When a maker's procedure was done on a board, and what its fit said.
+
+    ``name``: a key of :data:`PROCEDURES`. ``done_at``: the local time it was
+    saved, ISO 8601 to the second with the UTC offset (``2025-03-01T14:03:09+01:00``).
+    ``figures``: the fit's figures, each name ending in its unit (``residual_m_s2``;
+    ``residual_ut``, ``strength_ut``, ``dip_deg``). A ValueError says what is wrong.
+    """
+
+    name: str
+    done_at: str
+    figures: tuple[tuple[str, float], ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.name not in PROCEDURES:
+            raise ValueError(f"unknown procedure {self.name!r} (known: {', '.join(PROCEDURES)})")
+        if not isinstance(self.done_at, str) or _iso_time(self.done_at) is None:
+            raise ValueError(f"{self.name}: done_at must be a date and time like 2025-03-01T14:03:09+01:00")
+        for key, value in self.figures:
+            if not _FIGURE_NAME.fullmatch(key) or key == "done_at":
+                raise ValueError(f"{self.name}: {key!r} is not a figure's name")
+            if not math.isfinite(value):
+                raise ValueError(f"{self.name}: {key} must be a finite number")
+
+    @classmethod
+    def now(cls, name: str, figures: dict[str, float]) -> "ProcedureRecord":
+        """A record of ``name`` done now (local time) with ``figures``."""
+        done_at = datetime.now().astimezone().isoformat(timespec="seconds")
+        return cls(name, done_at, tuple((k, float(v)) for k, v in figures.items()))
+
+    @property
+    def when(self) -> str:
+        """``done_at`` as a person reads it: ``2025-03-01 14:03``."""
+        t = _iso_time(self.done_at)
+        return t.strftime("%Y-%m-%d %H:%M") if t is not None else self.done_at
+
+    def to_json(self) -> dict:
+        return {"done_at": self.done_at, **dict(self.figures)}
+
+    @classmethod
+    def from_json(cls, name: str, d: object) -> "ProcedureRecord":
+        """Inverse of :meth:`to_json`; a ValueError naming what is wrong."""
+        if not isinstance(d, dict) or not isinstance(d.get("done_at"), str):
+            raise ValueError(f"procedures: {name} must be an object with done_at, a date and time")
+        figures = [(k, v) for k, v in d.items() if k != "done_at"]
+        for k, v in figures:
+            if not isinstance(v, (int, float)) or isinstance(v, bool):
+                raise ValueError(f"procedures: {name}: {k} must be a number")
+        return cls(name, d["done_at"], tuple((str(k), float(v)) for k, v in figures))
+
+
+def _iso_time(text: str) -> datetime | None:
+    """The time ``text`` names in ISO 8601, None if it names none."""
+    try:
+        return datetime.fromisoformat(text)
+    except ValueError:
+        return None
 
 
 class Corrected(NamedTuple):
@@ -865,7 +942,9 @@ class BoardCalibration:
         gyr_cal = gyr - gyro_bias                                (seed 002 eq. 2)
         acc_cal = acc_misalignment @ (acc_scale * (acc - acc_offset))   (Tedaldi 2014)
         mag_cal = mag_soft_iron @ (mag - mag_hard_iron)          (hard/soft iron)
-    in rad/s, m/s^2 and uT. ``board_id`` names the board's file (see :func:`make_board_id`).
+    in rad/s, m/s^2 and uT. ``board_id`` names the board's file (see :func:`board_id_of`).
+    ``procedures``: when each of the maker's procedures filled its fields
+    (:data:`PROCEDURES`), at most one record each, in that order.
     Arrays are validated (shape, finite) on construction; a bad one is a ValueError.
     They are read-only, so that :meth:`apply`'s copy of them as floats stays true.
     """
@@ -877,12 +956,13 @@ class BoardCalibration:
     acc_misalignment: Array = field(default_factory=lambda: np.eye(3))
     mag_hard_iron: Array = field(default_factory=lambda: np.zeros(3))
     mag_soft_iron: Array = field(default_factory=lambda: np.eye(3))
+    procedures: tuple[ProcedureRecord, ...] = ()
     _plain: _PlainCalibration = field(init=False, repr=False)  # the arrays as floats, for apply
 
     def __post_init__(self) -> None:
         if not isinstance(self.board_id, str) or not _BOARD_ID.fullmatch(self.board_id):
             raise ValueError(f"board id {self.board_id!r} must be letters, digits, '.', '_' "
-                             f"or '-' (see make_board_id)")
+                             f"or '-' (see board_id_of)")
         for f in _array_fields():
             value = np.array(getattr(self, f.name), dtype=np.float64)
             factory = f.default_factory
@@ -892,7 +972,26 @@ class BoardCalibration:
                 raise ValueError(f"{f.name} must be {' x '.join(map(str, shape))} finite numbers")
             value.flags.writeable = False
             object.__setattr__(self, f.name, value)
+        records = tuple(self.procedures)
+        if not all(isinstance(r, ProcedureRecord) for r in records):
+            raise ValueError("procedures must be ProcedureRecord values")
+        names = [r.name for r in records]
+        if len(set(names)) != len(names):
+            raise ValueError("procedures: each procedure may be recorded once")
+        order = list(PROCEDURES)
+        object.__setattr__(self, "procedures", tuple(sorted(records, key=lambda r: order.index(r.name))))
         object.__setattr__(self, "_plain", _PlainCalibration.of(self))
+
+    def record(self, name: str) -> ProcedureRecord | None:
+        """When procedure ``name`` filled this board's fields; None if it never did."""
+        return next((r for r in self.procedures if r.name == name), None)
+
+    def with_procedure(self, fitted: "BoardCalibration", record: ProcedureRecord) -> "BoardCalibration":
+        """This calibration with ``record``'s procedure's fields (:data:`PROCEDURES`) taken from
+        ``fitted`` and its record replaced; every other field and record kept."""
+        taken = {name: getattr(fitted, name) for name in PROCEDURES[record.name]}
+        kept = tuple(r for r in self.procedures if r.name != record.name)
+        return replace(self, procedures=kept + (record,), **taken)
 
     def apply_arrays(self, acc: ArrayLike, gyr: ArrayLike,
                      mag: ArrayLike | None = None) -> Corrected:
@@ -917,7 +1016,8 @@ class BoardCalibration:
     def to_json(self) -> dict:
         """JSON-ready fields, with the file format and version."""
         return {"format": FORMAT, "version": VERSION, "board_id": self.board_id,
-                **{f.name: getattr(self, f.name).tolist() for f in _array_fields()}}
+                **{f.name: getattr(self, f.name).tolist() for f in _array_fields()},
+                "procedures": {r.name: r.to_json() for r in self.procedures}}
 
     @classmethod
     def from_json(cls, d: object) -> "BoardCalibration":
@@ -935,9 +1035,16 @@ class BoardCalibration:
             if not _plain_numbers(d[n]):
                 raise ValueError(f"{n} must be a list of numbers (or of lists of numbers)")
         try:
-            return cls(**{n: d[n] for n in names})
+            return cls(**{n: d[n] for n in names}, procedures=_records(d.get("procedures", {})))
         except (TypeError, ValueError) as e:
             raise ValueError(str(e)) from None
+
+
+def _records(d: object) -> tuple[ProcedureRecord, ...]:
+    """The file's ``procedures`` object (absent in files saved before the procedures were recorded)."""
+    if not isinstance(d, dict):
+        raise ValueError(f"procedures must be an object of {' and '.join(PROCEDURES)}")
+    return tuple(ProcedureRecord.from_json(str(name), value) for name, value in d.items())
 
 
 def _plain_numbers(value: object) -> bool:
@@ -952,22 +1059,40 @@ def _plain_numbers(value: object) -> bool:
 
 
 def _array_fields() -> list[Field]:
-    """BoardCalibration's array fields (the settings but board_id); each default gives its shape."""
-    return [f for f in fields(BoardCalibration) if f.init and f.name != "board_id"]
+    """BoardCalibration's array fields (the settings but board_id and procedures); each default
+    gives its shape."""
+    return [f for f in fields(BoardCalibration) if f.init and f.name not in ("board_id", "procedures")]
 
 
 class CalibrationFileError(Exception):
-    """A board calibration file that cannot be read or written, worded for the user."""
+    """A board calibration file that cannot be read or written, worded for the user.
 
-    def __init__(self, path: Path, problem: str) -> None:
+    ``missing``: there is no file at all (nothing saved yet), as opposed to one
+    that exists and cannot be used.
+    """
+
+    def __init__(self, path: Path, problem: str, missing: bool = False) -> None:
         super().__init__(f"board calibration {path}: {problem}")
         self.path = path
+        self.missing = missing
 
 
-def make_board_id(firmware: str, user: str = "default") -> str:
-    """A board id, safe as a file name, from the hello's firmware string and a user name."""
-    safe = re.sub(r"[^A-Za-z0-9._-]+", "-", f"{firmware}_{user}").strip("._-")[:80]
-    return safe or "default"
+def board_id_of(hello: Hello, virtual: bool = False) -> str:
+    """The board's id, the name of its calibration file, from its HELLO: ``imu-71`` for an MPU-9250.
+
+    A HELLO carries the protocol and firmware versions, the IMU's WHO_AM_I, the
+    magnetometer's WIA, settings and error flags (PROTOCOL.md sec. 5.1); no serial
+    number. What the calibration describes is the sensor chip, so the id is the
+    IMU's WHO_AM_I alone: a new firmware keeps the calibration (raw samples are SI
+    units whatever the firmware), and a magnetometer that fails to answer at one
+    power-up (``mag_whoami`` 0, MAG_MISSING) does not hide the accelerometer's.
+    The AK8963 lives in the MPU-9250's package, so the IMU's id names it too.
+    Two boards of the same make therefore share one file: a maker who swaps
+    boards calibrates again. The virtual board (``virtual``) sends the real
+    firmware's HELLO; its file is ``virtual-imu-71``, so that calibrating or
+    playing it never touches a real board's.
+    """
+    return ("virtual-" if virtual else "") + f"imu-{hello.imu_whoami:02x}"
 
 
 def boards_dir() -> Path:
@@ -999,7 +1124,8 @@ def _read_json(path: Path) -> object:
     try:
         return read_json(path)
     except FileNotFoundError:
-        raise CalibrationFileError(path, "no calibration saved for this board yet") from None
+        raise CalibrationFileError(path, "no calibration saved for this board yet (armtracker calibrate "
+                                   "accel, then calibrate mag)", missing=True) from None
     except JSONInputError as e:
         raise CalibrationFileError(path, f"it is damaged ({e.problem}); delete it or calibrate again") \
             from None
@@ -1019,6 +1145,12 @@ def load(board_id: str, directory: str | os.PathLike | None = None) -> BoardCali
     return cal
 
 
+def done_text(cal: BoardCalibration) -> str:
+    """Which procedures filled ``cal`` and when: ``accelerometer 2025-03-01 14:03, magnetometer not calibrated``."""
+    return ", ".join(f"{PROCEDURE_TITLES[name]} {r.when}" if (r := cal.record(name)) else
+                     f"{PROCEDURE_TITLES[name]} not calibrated" for name in PROCEDURES)
+
+
 def load_or_default(board_id: str, directory: str | os.PathLike | None = None
                     ) -> tuple[BoardCalibration, str]:
     """A board's calibration and a notice for the user; the defaults when it cannot be loaded."""
@@ -1026,4 +1158,103 @@ def load_or_default(board_id: str, directory: str | os.PathLike | None = None
         cal = load(board_id, directory)
     except CalibrationFileError as e:
         return BoardCalibration(board_id), f"{e}; using the default calibration"
-    return cal, f"board calibration loaded from {calibration_path(board_id, directory)}"
+    return cal, f"board calibration loaded from {calibration_path(board_id, directory)} ({done_text(cal)})"
+
+
+def load_for_hello(hello: Hello | None, directory: str | os.PathLike | None = None, virtual: bool = False
+                   ) -> tuple[BoardCalibration, str]:
+    """The calibration saved for the board that sent ``hello`` (:func:`board_id_of`; ``virtual`` for the
+    virtual board) and a one-line
+    notice saying what was loaded, or why the defaults are used (no file, a damaged one, a board
+    that did not identify itself). Never raises and never writes: for ``armtracker monitor`` and
+    the game. ``cal.procedures`` is empty when no procedure was ever saved for the board."""
+    if hello is None:
+        return BoardCalibration(), ("the board did not identify itself (no HELLO: not the EnergyBall "
+                                    "firmware?); using the default calibration")
+    return load_or_default(board_id_of(hello, virtual), directory)
+
+
+def _keep_damaged(path: Path) -> Path | None:
+    """Before ``path`` is replaced: copy it to ``<name>.damaged`` (``.damaged.2``, ... when that name
+    holds another copy); the copy's path (None when there is no file). An identical copy already
+    beside it is reused. :class:`CalibrationFileError` when it cannot be copied: then it must not
+    be replaced."""
+    try:
+        if not stat.S_ISREG(path.stat().st_mode):
+            raise CalibrationFileError(path, "it is not a regular file; it is left as it is")
+        data = path.read_bytes()
+    except FileNotFoundError:
+        return None
+    except OSError as e:
+        raise CalibrationFileError(path, f"cannot keep a copy of it ({e.strerror or e}); "
+                                   f"it is left as it is") from None
+    for n in range(1, MAX_DAMAGED_COPIES + 1):
+        copy_path = path.with_name(f"{path.name}.damaged" + (f".{n}" if n > 1 else ""))
+        try:
+            if copy_path.read_bytes() == data:
+                return copy_path
+        except FileNotFoundError:
+            try:
+                atomic_write(copy_path, data)
+            except OSError as e:
+                raise CalibrationFileError(path, f"cannot keep a copy of it as {copy_path.name} "
+                                           f"({e.strerror or e}); it is left as it is") from None
+            return copy_path
+        except OSError:
+            continue  # that name is unusable (a folder, say): try the next
+    raise CalibrationFileError(path, f"it is damaged and {MAX_DAMAGED_COPIES} damaged copies lie beside "
+                               f"it already; it is left as it is")
+
+
+def damage(board_id: str, directory: str | os.PathLike | None = None) -> str:
+    """Why the board's existing file cannot be used ("" when it loads or there is none): what a
+    procedure says before it starts, since saving will replace that file (keeping a copy)."""
+    try:
+        load(board_id, directory)
+    except CalibrationFileError as e:
+        return "" if e.missing else str(e)
+    return ""
+
+
+def save_procedure(board_id: str, fitted: BoardCalibration, record: ProcedureRecord,
+                   directory: str | os.PathLike | None = None) -> tuple[Path, Path | None]:
+    """Save procedure ``record.name``'s fields from ``fitted`` in the board's file, atomically.
+
+    The file is read again now, so that what another procedure saved meanwhile
+    (the other command, the game's Board setup) is kept: its fields, its record
+    and the gyroscope bias. A file that exists but cannot be used is first copied
+    to ``<name>.damaged`` (:func:`_keep_damaged`) and then replaced by the
+    defaults with this procedure's fields. Returns the path written and the
+    damaged copy's path (or None). :class:`CalibrationFileError` when nothing
+    could be written; then nothing was.
+    """
+    path = calibration_path(board_id, directory)
+    copied = None
+    try:
+        base = load(board_id, directory)
+    except CalibrationFileError as e:
+        if not e.missing:
+            copied = _keep_damaged(path)
+        base = BoardCalibration(board_id)
+    return save(base.with_procedure(fitted, record), directory), copied
+
+
+def saved_boards(directory: str | os.PathLike | None = None
+                 ) -> list[BoardCalibration | CalibrationFileError]:
+    """Every board file in the folder (``<id>.json``), by id: its calibration, or why it cannot be read."""
+    folder = Path(directory if directory is not None else boards_dir())
+    try:
+        names = sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".json"))
+    except FileNotFoundError:
+        return []
+    except OSError as e:
+        raise CalibrationFileError(folder, f"cannot list the folder: {e.strerror or e}") from None
+    out: list[BoardCalibration | CalibrationFileError] = []
+    for name in names:
+        if not _BOARD_ID.fullmatch(name):
+            continue  # not one of ours: no board id makes that name
+        try:
+            out.append(load(name, folder))
+        except CalibrationFileError as e:
+            out.append(e)
+    return out

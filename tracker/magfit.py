@@ -64,6 +64,8 @@ SPHERE_MIN_READINGS = 4  # the sphere's four parameters
 ELLIPSOID_MIN_READINGS = 10  # the quadric's ten coefficients, up to scale: nine
 MIN_COVERAGE = 0.5  # share of the direction bins a fit needs (see coverage())
 ELLIPSOID_COVERAGE = 0.7  # below it the soft iron is not fitted (fit_ellipsoid)
+EARTH_MIN_UT = 22.0  # the weakest total intensity at the earth's surface (WMM 2020, sec. 4)
+EARTH_MAX_UT = 67.0  # the strongest
 FIELD_MIN_UT = 15.0  # the earth's 22 uT (WMM 2020) through 20 % of soft iron, and a margin
 FIELD_MAX_UT = 90.0  # the earth's 67 uT (WMM 2020) through 20 % of soft iron, and a margin
 MAX_RESIDUAL = 0.05  # a fit whose residual exceeds this share of B is inconsistent (OnlineMagFit)
@@ -153,8 +155,8 @@ def _readings(m: ArrayLike, least: int) -> Array:
     return x
 
 
-def _bin_index(directions: Array) -> NDArray[np.int64]:
-    """The equal-area bin (0 .. BINS - 1) of each nonzero direction (N, 3)."""
+def bin_index(directions: Array) -> NDArray[np.int64]:
+    """The equal-area bin (0 .. BINS - 1) of each nonzero direction (N, 3) (see :func:`coverage`)."""
     v: Array = directions @ _BINS_FRAME.T
     v = v / np.linalg.norm(v, axis=1, keepdims=True)
     ring = np.sum(v[:, 2:3] < _RING_TOPS, axis=1)
@@ -162,6 +164,27 @@ def _bin_index(directions: Array) -> NDArray[np.int64]:
     turn = (np.arctan2(v[:, 1], v[:, 0]) / (2.0 * math.pi)) % 1.0
     sector = np.floor(turn * count + np.asarray(_RING_TWIST)[ring]).astype(np.int64) % count
     return np.asarray(_RING_FIRST[ring] + sector, dtype=np.int64)
+
+
+def bin_directions() -> Array:
+    """The centres of the :data:`BINS` direction bins, (BINS, 3) unit vectors in bin order.
+
+    A bin of a ring between heights z1 > z2 spans its sector's azimuths, so its
+    centre (of area: the ring is equal-area in z) sits at height (z1 + z2) / 2
+    and the sector's middle azimuth, in the bins' frame; the polar caps' at the
+    poles. For drawing the sphere of directions a procedure has covered.
+    """
+    tops = np.concatenate([[1.0], _RING_TOPS])
+    bottoms = np.concatenate([_RING_TOPS, [-1.0]])
+    rows = []
+    for ring, count in enumerate(_RING_BINS):
+        z = 0.5 * (tops[ring] + bottoms[ring]) if count > 1 else math.copysign(1.0, tops[ring])
+        r = math.sqrt(max(0.0, 1.0 - z * z))
+        for sector in range(count):
+            turn = 2.0 * math.pi * (sector + 0.5 - _RING_TWIST[ring]) / count
+            rows.append((r * math.cos(turn), r * math.sin(turn), z))
+    centres: Array = np.array(rows) @ _BINS_FRAME
+    return centres
 
 
 def coverage(directions: ArrayLike) -> float:
@@ -176,7 +199,7 @@ def coverage(directions: ArrayLike) -> float:
     d = d[np.linalg.norm(d, axis=1) > 0.0]
     if not len(d):
         return 0.0
-    return len(np.unique(_bin_index(d))) / BINS
+    return len(np.unique(bin_index(d))) / BINS
 
 
 def _residual_rms(m: Array, offset: Array, w: Array, field_ut: float) -> float:

@@ -95,7 +95,7 @@ def test_the_direction_bins_have_equal_areas():
     # mean n/40 and standard deviation sqrt(n/40 (1 - 1/40)); every bin within 5 of those.
     n = 400_000
     u = np.random.default_rng(2).standard_normal((n, 3))
-    counts = np.bincount(magfit._bin_index(u), minlength=BINS)
+    counts = np.bincount(magfit.bin_index(u), minlength=BINS)
     assert len(counts) == BINS == 40
     sd = math.sqrt(n / BINS * (1 - 1 / BINS))
     assert np.abs(counts - n / BINS).max() < 5 * sd

@@ -1,0 +1,396 @@
+"""The simulated maker: a person at a table who calibrates a simulated board by following the prompts.
+
+:class:`SimulatedMaker` is a :class:`tracker.motion.MotionSource`: what the
+board's sensors read at time t, its errors included (:mod:`tracker.sim`'s
+error models; :func:`tracker.sim.realistic_errors` by default). Served by
+:class:`tracker.board.VirtualBoard` (``VirtualBoard(motion=maker)``) it is a
+board on a table; :meth:`SimulatedMaker.follow` reads a procedure's prompt
+and acts on it: for :class:`tracker.accel_procedure.AccelStatus` it turns the
+board to the asked face and lets it lie still, for
+:class:`tracker.mag_procedure.MagStatus` it tumbles the board slowly through
+every orientation. :func:`run_maker` does the same offline, as fast as the
+simulator goes, for tests and the gesture evaluation.
+
+The board on a table. No tremor, sway or strap reaches it (the maker's hand
+lets go of a board lying on a face). Each move to a face starts after a
+reaction time of 0.4-0.8 s (a choice reaction to a prompt: A. T. Welford,
+"Reaction times", Academic Press 1980, ch. 3: 0.3-0.6 s for a few choices,
+and reading the line), takes 1.5 s with the minimum-jerk profile of a
+reaching hand (T. Flash and N. Hogan, "The coordination of arm movements",
+J. Neurosci. 5 (1985) 1688-1703), and ends on the face with a random
+heading and a lean of up to 2 deg (the table, the board's components). The
+board turns about its own centre: it does not wander through the room's
+field disturbance (:class:`tracker.sim.MagneticErrors`), which near a fixed
+point is just part of the local field.
+
+The tumble for the magnetometer is the one a maker watching the sphere of
+directions fill in ends up making: the board spins steadily (a turn in
+about 4 s, 90 deg/s) about an axis that tilts slowly from the field's
+direction to its opposite and back (48 s), so the field's direction in the
+board's frame spirals over the whole sphere (a turn of the spiral every
+4 s, 30 deg apart: about one bin of :func:`tracker.magfit.coverage`); the
+spin starts smoothly.
+
+Refusals to exercise, as a real maker causes them: ``nudges`` (the hand
+bumps the board, rocking it 8 deg for 0.4 s), ``repeat_face`` (after the
+first capture the maker lifts the board and lays it on the same face
+again, before obeying), ``magnet`` (a magnet brought near the board for a
+while: :class:`Magnet`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from dataclasses import dataclass, field, replace
+from typing import Callable, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from . import quat as Q
+from .accel_procedure import AccelProcedure, AccelStatus
+from .board import BoardSettings, quantise
+from .calibration import BoardCalibration, SixPoseResult
+from .mag_procedure import MagProcedure, MagResult, MagStatus
+from .magfit import MagFitError
+from .motion import SensorReading
+from .protocol import STANDARD_GRAVITY, RawSample
+from .sim import (SCALE_TOLERANCE, Chain, LinkSpec, Motion, SampleStream, SensorErrors, SensorSpec, Simulator,
+                  realistic_errors)
+
+Array = NDArray[np.float64]
+Vec3 = tuple[float, float, float]
+
+RATE_HZ = BoardSettings.rate_hz  # the firmware's default sample rate
+TURN_S = 1.5  # a move from face to face
+REACTION_S = (0.4, 0.8)  # the delay before a prompt is acted on, drawn per prompt
+LEAN_DEG = 2.0  # a board lying on a face leans up to this far
+TUMBLE_SPIN_S = 4.0  # a turn of the tumble's spin (90 deg/s), drawn within +-20 %
+TUMBLE_SWING_S = 48.0  # the spin axis tilts from the field's direction to its opposite and back
+EASE_S = 1.0  # the tumble's smooth start
+NUDGE_DEG, NUDGE_S = 8.0, 0.4
+BLOCK = 20  # samples simulated at once (0.1 s at 200 Hz: less than a reaction time)
+FACE_AXES = {"+x": (1.0, 0.0, 0.0), "-x": (-1.0, 0.0, 0.0), "+y": (0.0, 1.0, 0.0),
+             "-y": (0.0, -1.0, 0.0), "+z": (0.0, 0.0, 1.0), "-z": (0.0, 0.0, -1.0)}
+
+
+def maker_errors(errors: SensorErrors | None = None) -> SensorErrors:
+    """A freshly made board's errors: ``errors`` (:func:`tracker.sim.realistic_errors` by default).
+
+    With no ``errors`` given, the accelerometer also gets the data sheet's
+    sensitivity tolerance, +-3 % (PS-MPU-9250A-01 rev. 1.1, table 2;
+    :data:`tracker.sim.SCALE_TOLERANCE`), which ``realistic_errors`` leaves
+    out because the game assumes a calibrated board: this is what the six-pose
+    calibration is for. Drawing the scale leaves every other draw as it was
+    (each kind of error has its own random stream, :mod:`tracker.sim`).
+    """
+    if errors is not None:
+        return errors
+    base = realistic_errors()
+    return replace(base, acc=replace(base.acc, scale_max=SCALE_TOLERANCE))
+
+
+@dataclass(frozen=True)
+class Magnet:
+    """A magnet near the board from ``start_s`` to ``stop_s`` (the maker's seconds).
+
+    Its field at the board, ``field_ut`` in the room's frame (ENU), fades in
+    and out over ``ramp_s`` (a raised cosine). The board turns about its own
+    centre, so a magnet lying still nearby adds a constant field in the room.
+    The default, 200 uT, is a 10 mm neodymium cube (moment about 1 A m^2:
+    remanence 1.3 T over mu_0, times its volume) 10 cm away on its axis:
+    B = mu_0 / (4 pi) 2 m / r^3 (the dipole field, J. D. Jackson, "Classical
+    Electrodynamics", 3rd ed., eq. 5.56). It is added to what the magnetometer
+    reads, after the board's soft iron (which would change it by 20 % at
+    most: a field refused anyway).
+    """
+
+    start_s: float
+    stop_s: float
+    field_ut: Vec3 = (0.0, 0.0, 200.0)
+    ramp_s: float = 0.5
+
+    def at(self, t: Array) -> Array:
+        """The magnet's field (N, 3) at the maker's times ``t`` (N,)."""
+        up = np.clip((t - self.start_s) / self.ramp_s, 0.0, 1.0)
+        down = np.clip((self.stop_s - t) / self.ramp_s, 0.0, 1.0)
+        share = 0.5 - 0.5 * np.cos(np.pi * np.minimum(up, down))
+        return share[:, None] * np.asarray(self.field_ut)
+
+
+def _min_jerk(s: Array) -> Array:
+    """10 s^3 - 15 s^4 + 6 s^5 on [0, 1] (Flash and Hogan 1985), clipped outside."""
+    s = np.clip(s, 0.0, 1.0)
+    return s**3 * (10.0 - 15.0 * s + 6.0 * s**2)
+
+
+def _eased_time(tau: Array) -> Array:
+    """The integral of :func:`_min_jerk` (tau / EASE_S) dtau: time whose rate rises smoothly from 0 to 1."""
+    s = np.clip(tau / EASE_S, 0.0, 1.0)
+    ramp = EASE_S * s**4 * (2.5 - 3.0 * s + s**2)
+    return ramp + np.maximum(tau - EASE_S, 0.0)
+
+
+@dataclass(frozen=True)
+class _Move:
+    """From ``q0`` at ``t0`` to ``q1`` by ``t1`` (minimum jerk), then lying still at ``q1``."""
+
+    t0: float
+    t1: float
+    q0: Array
+    q1: Array
+    face: str | None  # the face it ends on (None: lifted, between faces)
+
+    def at(self, t: Array) -> Array:
+        return Q.slerp(self.q0, self.q1, _min_jerk((t - self.t0) / (self.t1 - self.t0)))
+
+
+@dataclass(frozen=True)
+class _Tumble:
+    """Turning on from ``q0`` at ``t0``: a spiral about the field's direction (module docstring)."""
+
+    t0: float
+    q0: Array
+    spin_s: float  # seconds per turn of the spin
+    field: Array  # the field's direction in the room (unit)
+    face: None = None
+
+    def at(self, t: Array) -> Array:
+        u = _eased_time(np.maximum(t - self.t0, 0.0))
+        tilt = 0.5 * np.pi * (1.0 - np.cos(2.0 * np.pi * u / TUMBLE_SWING_S))
+        spin = 2.0 * np.pi * u / self.spin_s
+        to_field = Q.from_two_vectors((0.0, 0.0, 1.0), self.field)
+        turn = Q.multiply(Q.from_axis_angle((1.0, 0.0, 0.0), tilt), Q.from_axis_angle((0.0, 0.0, 1.0), spin))
+        room = Q.multiply(to_field, Q.multiply(turn, Q.conjugate(to_field)))
+        return Q.multiply(room, self.q0)
+
+
+_Segment = _Move | _Tumble
+
+
+class SimulatedMaker:
+    """A maker at a table with a simulated board (module docstring); a :class:`tracker.motion.MotionSource`.
+
+    ``errors``: the board's (:func:`maker_errors`); ``seed``: the board's error
+    draws (the same seed as a :class:`tracker.sim.Simulator` gives the same
+    board) and the maker's own choices; ``rate_hz``: the board's sample rate.
+    Time is the board's clock (seconds since power-up); when the board powers
+    up again (its clock restarts) the maker's world goes on where it was.
+    """
+
+    def __init__(self, errors: SensorErrors | None = None, seed: int = 0, rate_hz: float = RATE_HZ,
+                 magnet: Magnet | None = None, nudges: Sequence[float] = (), repeat_face: bool = False) -> None:
+        self.errors = maker_errors(errors)
+        self.seed, self.rate_hz = seed, rate_hz
+        self.magnet, self.nudges, self.repeat_face = magnet, tuple(nudges), repeat_face
+        self._rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(7,)))
+        start = Q.from_axis_angle((0.0, 0.0, 1.0), self._rng.uniform(0.0, 2.0 * np.pi))
+        self._plan: tuple[_Segment, ...] = (_Move(-1.0, 0.0, start, start, "+z"),)
+        self._simulator = Simulator(Chain((LinkSpec("board", 0.0),), (SensorSpec("imu", 0, (0.0, 0.0, 0.0)),)),
+                                    Motion(self._root, lambda t: np.zeros((len(t), 0))), self.errors, seed=seed)
+        self._stream: SampleStream = self._simulator.stream(rate_hz)
+        self._cache: tuple[int, list[SensorReading]] = (-1, [])
+        self._epoch = 0.0  # the maker's time at the board's latest power-up
+        self._board_t = 0.0  # the board's latest time asked for
+        self.now = 0.0  # the maker's time of the latest reading
+        self._repeated = False
+
+    # ------------------------------------------------------------------ the motion
+
+    def _root(self, t: Array) -> Array:
+        """The board's orientation q_WS at the maker's times ``t`` (its plan, then the nudges)."""
+        plan = self._plan
+        q = np.empty((len(t), 4))
+        starts = np.array([s.t0 for s in plan])
+        which = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(plan) - 1)
+        for i in np.unique(which):
+            q[which == i] = plan[i].at(t[which == i])
+        for t_n in self.nudges:
+            s = np.clip((t - t_n) / NUDGE_S, 0.0, 1.0)
+            q = Q.multiply(q, Q.from_axis_angle((1.0, 0.0, 0.0), math.radians(NUDGE_DEG) * np.sin(np.pi * s) ** 2))
+        return q
+
+    def reading(self, t: float) -> SensorReading:
+        """What the board's sensors read at board time ``t`` (errors included, not yet quantised)."""
+        if t == 0.0 and self._board_t > 0.0:  # a probe (the hello), or a power-up: now, unchanged
+            return self._at(self.now)
+        if t < self._board_t:  # the board powered up again
+            self._epoch = self.now + 1.0 / self.rate_hz
+        self._board_t = t
+        self.now = self._epoch + t
+        return self._at(self.now)
+
+    def _at(self, t: float) -> SensorReading:
+        k = round(t * self.rate_hz)
+        b, i = divmod(k, BLOCK)
+        if self._cache[0] != b:
+            self._cache = (b, self._block(b * BLOCK, (b + 1) * BLOCK))
+        return self._cache[1][i]
+
+    def _block(self, k0: int, k1: int) -> list[SensorReading]:
+        data = self._stream.block(k0, k1)
+        acc, gyr, mag = data.acc[:, 0], data.gyr[:, 0], data.mag[:, 0]
+        q = data.truth.q_sensors[:, 0]
+        if self.magnet is not None:
+            mag = mag + Q.rotate(Q.conjugate(q), self.magnet.at(data.t))
+        return [SensorReading(acc=(a[0], a[1], a[2]), gyr=(g[0], g[1], g[2]), mag=(m[0], m[1], m[2]),
+                              flex_deg=0.0, flex_adc=int(f), q=(w[0], w[1], w[2], w[3]))
+                for a, g, m, f, w in zip(acc.tolist(), gyr.tolist(), mag.tolist(), data.flex_adc.tolist(),
+                                         q.tolist())]
+
+    def raw_sample(self, t: float, seq: int = 0) -> RawSample:
+        """The raw sample the board sends at board time ``t``, quantised as the firmware does."""
+        s = BoardSettings()
+        return quantise(self.reading(t), t, round(t * 1e6) & 0xFFFFFFFF, seq & 0xFFFF, s.acc_fs_g, s.gyr_fs_dps)
+
+    # ------------------------------------------------------------------ following the prompts
+
+    def _replan(self, segment: _Segment) -> None:
+        """Start ``segment`` (from where the plan has the board then), dropping what was planned after."""
+        kept = tuple(s for s in self._plan if s.t0 < segment.t0)
+        self._plan = kept + (segment,)
+        if (self._cache[0] + 1) * BLOCK >= segment.t0 * self.rate_hz:
+            self._cache = (-1, [])
+
+    def _where(self, t: float) -> Array:
+        return self._root(np.array([t]))[0]
+
+    def _face_q(self, face: str) -> Array:
+        """The board lying with ``face`` up, a random heading and a small lean."""
+        up = Q.from_two_vectors(FACE_AXES[face], (0.0, 0.0, 1.0))
+        heading = Q.from_axis_angle((0.0, 0.0, 1.0), self._rng.uniform(0.0, 2.0 * np.pi))
+        azimuth = self._rng.uniform(0.0, 2.0 * np.pi)
+        lean = Q.from_axis_angle((math.cos(azimuth), math.sin(azimuth), 0.0),
+                                 math.radians(self._rng.uniform(0.0, LEAN_DEG)))
+        return Q.multiply(lean, Q.multiply(heading, up))
+
+    def _move(self, face: str | None, q1: Array) -> None:
+        t0 = self.now + self._rng.uniform(*REACTION_S)
+        self._replan(_Move(t0, t0 + TURN_S, self._where(t0), q1, face))
+
+    def follow(self, status: AccelStatus | MagStatus) -> None:
+        """Act on a procedure's prompt (module docstring); a prompt already being acted on changes nothing."""
+        current = self._plan[-1]
+        if isinstance(status, MagStatus):
+            if not isinstance(current, _Tumble):
+                t0 = self.now + self._rng.uniform(*REACTION_S)
+                field = np.asarray(self._simulator.earth_field_ut) / np.linalg.norm(self._simulator.earth_field_ut)
+                self._replan(_Tumble(t0, self._where(t0), TUMBLE_SPIN_S * self._rng.uniform(0.8, 1.2), field))
+            return
+        if status.done or status.asked is None:
+            return
+        if self._busy():
+            return
+        if self.repeat_face and not self._repeated and len(status.captured) == 1 \
+                and status.up == status.captured[0] and isinstance(current, _Move):
+            self._repeated = True  # lift it, then lay it on the same face again
+            lifted = Q.multiply(Q.from_axis_angle((1.0, 0.0, 0.0), math.radians(60.0)), current.q1)
+            self._move(None, lifted)
+            back = self._plan[-1].t0 + TURN_S + 0.3
+            self._replan(_Move(back, back + TURN_S, lifted, self._face_q(status.up), status.up))
+        elif current.face != status.asked:
+            self._move(status.asked, self._face_q(status.asked))
+
+    def _busy(self) -> bool:
+        """Whether a planned move has not ended yet (the maker finishes what it is doing)."""
+        current = self._plan[-1]
+        return isinstance(current, _Move) and current.t1 > self.now
+
+    # ------------------------------------------------------------------ the truth
+
+    def true_calibration(self) -> BoardCalibration:
+        """The board's true errors in :class:`tracker.calibration.BoardCalibration`'s convention.
+
+        The simulator measures acc = s a + o (per axis) and mag = D (S R^T h + b) + o_m
+        (:mod:`tracker.sim`), so acc_offset = o, acc_scale = 1 / s, mag_hard_iron =
+        D b + o_m, and with M = D S the soft iron is the symmetric W with W^T W
+        proportional to (M M^T)^-1, normalised to det W = 1 as the fit is
+        (:mod:`tracker.magfit`: only W up to a scale and a rotation is observable):
+        W = |det M|^(1/3) (M M^T)^(-1/2). gyro_bias: the offset at power-on.
+        """
+        data = self._simulator.stream(self.rate_hz).block(0, 1)
+        d, o_m = data.scale["mag"][0], data.offset["mag"][0]
+        m = d[:, None] * data.soft_iron[0]
+        values, vectors = np.linalg.eigh(m @ m.T)
+        w = abs(np.linalg.det(m)) ** (1.0 / 3.0) * (vectors / np.sqrt(values)) @ vectors.T
+        return BoardCalibration(gyro_bias=data.offset["gyr"][0], acc_offset=data.offset["acc"][0],
+                                acc_scale=1.0 / data.scale["acc"][0],
+                                mag_hard_iron=d * data.hard_iron[0] + o_m, mag_soft_iron=0.5 * (w + w.T))
+
+
+def calibration_errors(fitted: BoardCalibration, truth: BoardCalibration) -> dict[str, float]:
+    """The errors a calibration leaves against the truth (the issue's four figures).
+
+    ``acc_offset_error_mg``: the worst axis's offset error in mg (1 g = 9.80665 m/s^2);
+    ``acc_scale_error_pct``: the worst axis's fitted scale over the true, less one, in %;
+    ``mag_hard_iron_error_ut``: the length of the hard iron's error; ``mag_soft_iron_error_pct``:
+    the largest element of the soft iron's error (the matrices are near the identity), in %.
+    """
+    return {
+        "acc_offset_error_mg": float(np.max(np.abs(fitted.acc_offset - truth.acc_offset))) / STANDARD_GRAVITY * 1e3,
+        "acc_scale_error_pct": float(np.max(np.abs(fitted.acc_scale / truth.acc_scale - 1.0))) * 100.0,
+        "mag_hard_iron_error_ut": float(np.linalg.norm(fitted.mag_hard_iron - truth.mag_hard_iron)),
+        "mag_soft_iron_error_pct": float(np.max(np.abs(fitted.mag_soft_iron - truth.mag_soft_iron))) * 100.0,
+    }
+
+
+@dataclass
+class MakerRun:
+    """What :func:`run_maker` did: ``result`` (a :class:`tracker.calibration.SixPoseResult` or a
+    :class:`tracker.mag_procedure.MagResult`; None when refused), ``error`` (the refusal's line, or
+    ""), ``history`` ((maker's time, message) each time the message changed) and ``seconds`` taken."""
+
+    result: SixPoseResult | MagResult | None
+    error: str
+    history: list[tuple[float, str]] = field(default_factory=list)
+    seconds: float = 0.0
+
+
+def run_maker(procedure: AccelProcedure | MagProcedure, maker: SimulatedMaker, limit_s: float = 180.0,
+              pull_cable: tuple[float, float] | None = None,
+              watch: Callable[[float, AccelStatus | MagStatus], None] | None = None) -> MakerRun:
+    """Run ``procedure`` offline on ``maker``'s board, as fast as the simulator goes.
+
+    Each sample of the board (its rate, quantised as the firmware does) is fed
+    to the procedure and the maker follows the status, until the accelerometer
+    procedure is done or the magnetometer procedure is ready or sees a problem
+    (then it is finished), or ``limit_s`` of the maker's time pass.
+    ``pull_cable`` = (at_s, for_s): the cable is pulled at ``at_s`` (maker's
+    time) for ``for_s``: the procedure is told (``interrupted()``), and the
+    board powers up again, its clock from zero. ``watch`` sees every status.
+    """
+    run = MakerRun(None, "")
+    k0, k, seq = 0, 0, 0
+    status: AccelStatus | MagStatus = procedure.status
+    while True:
+        t = (k - k0) / maker.rate_hz
+        if pull_cable is not None and maker.now >= pull_cable[0]:
+            procedure.interrupted()
+            maker.now += pull_cable[1]
+            pull_cable, k0, t = None, k, 0.0
+            seq = 0
+        status = procedure.feed(maker.raw_sample(t, seq))
+        k, seq = k + 1, seq + 1
+        if not run.history or run.history[-1][1] != status.message:
+            run.history.append((maker.now, status.message))
+        if watch is not None:
+            watch(maker.now, status)
+        maker.follow(status)
+        if isinstance(status, AccelStatus) and status.done \
+                or isinstance(status, MagStatus) and (status.ready or status.problem):
+            break
+        if maker.now >= limit_s:
+            run.error = f"the procedure did not finish in {limit_s:g} s: {status.message}"
+            run.seconds = maker.now
+            return run
+    run.seconds = maker.now
+    try:
+        run.result = procedure.result() if isinstance(procedure, AccelProcedure) else procedure.finish()
+    except MagFitError as e:
+        run.error = str(e)
+    if isinstance(run.result, SixPoseResult) and not run.result.ok:
+        run.error = run.result.message
+    return run
