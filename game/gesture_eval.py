@@ -6,7 +6,8 @@ sensors on them (:mod:`tracker.sim`, MPU-9250 errors, the flex circuit),
 quantises and frames every sample as the firmware does, and decodes the
 bytes. From there the game's own code runs: the ``default`` filter and flex
 tracker (:mod:`game.tracking`) with the board's six-pose accelerometer
-calibration (done once by its maker, simulated here on the same board),
+calibration (done once by its maker with the guided procedure, a simulated
+maker following its prompts on the same board),
 "hold still" and the two-pose wearing
 calibration (:mod:`game.wearing`), the avatar and the gesture machine. The
 launches it reports are matched to the ones the player made.
@@ -30,9 +31,11 @@ import numpy as np
 
 from tracker import protocol as P
 from tracker import quat as Q
-from tracker.calibration import BoardCalibration, Pose, six_pose_calibration
-from tracker.magfit import MagFit, MagFitError, fit_ellipsoid, judge
-from tracker.sim import Chain, LinkSpec, Motion, SensorSpec, SimData, Simulator
+from tracker.accel_procedure import AccelProcedure
+from tracker.calibration import BoardCalibration, SixPoseResult
+from tracker.mag_procedure import MagProcedure, MagResult
+from tracker.maker_sim import SimulatedMaker, run_maker
+from tracker.sim import Simulator
 from tracker.sim_board import RATE_HZ, SimBoard
 
 from .avatar import Avatar, BodySettings
@@ -78,62 +81,35 @@ def board_stream(sim_session: Session, profile: PlayerProfile, seed: int) -> lis
     return samples
 
 
-SIX_POSES = ((0, 0, 1), (0, 0, -1), (1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0))
-TURN_S = 40.0  # the maker turns the board through every orientation for this long
-TURN_AVERAGE = 10  # the turn's samples are averaged in tens (20 Hz) for the fit: noise down by sqrt(10)
-
-
-def _on_the_table(profile: PlayerProfile, seed: int, root: Callable[[np.ndarray], np.ndarray],
-                  seconds: float) -> SimData:
-    """The simulated board (same seed, so the same errors) held by a maker, not worn: turned
-    by ``root`` on the spot, with no tremor, sway or strap."""
-    chain = Chain((LinkSpec("board", 0.0),), (SensorSpec("imu", 0, (0.0, 0.0, 0.0)),))
-    motion = Motion(root, lambda t: np.zeros((len(t), 0)))
-    return Simulator(chain, motion, profile.sensor_errors(), seed=seed).simulate(seconds, RATE_HZ)
-
-
-def _tumble(t: np.ndarray) -> np.ndarray:
-    """Turning the board through every orientation: spinning it about its own z once every 3 s
-    while tilting that axis from up to down and back over ``TURN_S`` (a spiral over the sphere)."""
-    tilt = Q.from_axis_angle((1.0, 0.0, 0.0), np.pi * (1 - np.cos(2 * np.pi * t / TURN_S)) / 2)
-    return Q.multiply(tilt, Q.from_axis_angle((0.0, 0.0, 1.0), 2 * np.pi * t / 3.0))
-
-
 def maker_calibration(profile: PlayerProfile, seed: int) -> tuple[BoardCalibration, str | None]:
     """The calibrations a maker does once per board (README), simulated on the same board.
 
-    Accelerometer: the board lies still on a table for two seconds with each
-    axis up and then down; :func:`tracker.calibration.six_pose_calibration`
-    solves offset and scale. Magnetometer: the maker turns the board on the
-    spot through every orientation (:func:`_tumble`, 40 s) and
-    :func:`tracker.magfit.fit_ellipsoid` finds its hard and soft iron, as
-    ``armtracker calibrate mag`` is to let real makers do. No player wears the
-    board: no tremor, sway or strap reaches it. Returns the calibration and
-    None, or what it has and why a fit failed (a reported figure, never an
-    exception).
+    Exactly what ``armtracker calibrate accel`` and ``calibrate mag`` run: the
+    six-pose procedure (:class:`tracker.accel_procedure.AccelProcedure`) and
+    the magnetometer procedure (:class:`tracker.mag_procedure.MagProcedure`),
+    fed the board's quantised samples while a simulated maker
+    (:class:`tracker.maker_sim.SimulatedMaker`, the board's errors drawn from
+    the same seed as the session's) follows their prompts: lays the board on
+    each face in turn, then tumbles it through every orientation. No player
+    wears the board: no tremor, sway or strap reaches it. Returns the
+    calibration and None, or what it has and why a procedure failed (a
+    reported figure, never an exception).
     """
-    poses = []
-    for axis in SIX_POSES:
-        up = Q.from_two_vectors(axis, (0.0, 0.0, 1.0))  # that sensor axis up
-
-        def still(t: np.ndarray, up: np.ndarray = up) -> np.ndarray:
-            return np.broadcast_to(up, (len(t), 4))
-
-        data = _on_the_table(profile, seed, still, 2.0)
-        poses.append(Pose(data.acc[:, 0], data.gyr[:, 0]))
-    acc = six_pose_calibration(poses)
-    mag = _on_the_table(profile, seed, _tumble, TURN_S).mag[:, 0]
-    turned = mag[:len(mag) // TURN_AVERAGE * TURN_AVERAGE].reshape(-1, TURN_AVERAGE, 3).mean(axis=1)
-    try:
-        fit: MagFit | None = fit_ellipsoid(turned)
-        problem = judge(fit)
-    except MagFitError as e:
-        fit, problem = None, str(e)
-    problems = ([] if acc.ok else [f"six-pose calibration failed: {acc.message}"]) + \
-        ([f"magnetometer calibration failed: {problem}"] if problem else [])
-    cal = BoardCalibration(acc_offset=acc.offset, acc_scale=acc.scale)  # the identity when not ok
-    if fit is not None and not problem:
+    maker = SimulatedMaker(profile.sensor_errors(), seed)
+    accel = run_maker(AccelProcedure(), maker)
+    cal = BoardCalibration()
+    problems = []
+    if isinstance(accel.result, SixPoseResult) and not accel.error:
+        cal = replace(cal, acc_offset=accel.result.offset, acc_scale=accel.result.scale,
+                      acc_misalignment=accel.result.misalignment)
+    else:
+        problems.append(f"six-pose calibration failed: {accel.error}")
+    mag = run_maker(MagProcedure(accel=cal), maker)
+    if isinstance(mag.result, MagResult) and not mag.error:
+        fit = mag.result.fit
         cal = replace(cal, mag_hard_iron=np.array(fit.offset), mag_soft_iron=np.array(fit.soft_iron))
+    else:
+        problems.append(f"magnetometer calibration failed: {mag.error}")
     return cal, "; ".join(problems) or None
 
 

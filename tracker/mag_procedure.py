@@ -206,7 +206,8 @@ class MagProcedure:
             return self._status
         self._field = math.sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
         self._average(m)
-        a = self._accel.apply(sample).acc if self._accel is not None else sample.acc
+        c = self._accel.apply(sample).acc if self._accel is not None else sample.acc
+        a = (float(c[0]), float(c[1]), float(c[2]))
         g = math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
         if abs(g - GRAVITY) <= self.params.still_tolerance * GRAVITY:
             self._dip.add(m, a)

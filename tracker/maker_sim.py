@@ -52,12 +52,12 @@ from numpy.typing import NDArray
 
 from . import quat as Q
 from .accel_procedure import AccelProcedure, AccelStatus
-from .board import BoardSettings, quantise
+from .board import BoardSettings, acc_lsb, counts, gyr_lsb
 from .calibration import BoardCalibration, SixPoseResult
 from .mag_procedure import MagProcedure, MagResult, MagStatus
 from .magfit import MagFitError
 from .motion import SensorReading
-from .protocol import STANDARD_GRAVITY, RawSample
+from .protocol import MAG_UT_PER_COUNT, STANDARD_GRAVITY, RawSample
 from .sim import (SCALE_TOLERANCE, Chain, LinkSpec, Motion, SampleStream, SensorErrors, SensorSpec, Simulator,
                   realistic_errors)
 
@@ -72,7 +72,7 @@ TUMBLE_SPIN_S = 4.0  # a turn of the tumble's spin (90 deg/s), drawn within +-20
 TUMBLE_SWING_S = 48.0  # the spin axis tilts from the field's direction to its opposite and back
 EASE_S = 1.0  # the tumble's smooth start
 NUDGE_DEG, NUDGE_S = 8.0, 0.4
-BLOCK = 20  # samples simulated at once (0.1 s at 200 Hz: less than a reaction time)
+BLOCK_S = 0.3  # simulated at once: less than a reaction time, so a prompt never changes a block computed
 FACE_AXES = {"+x": (1.0, 0.0, 0.0), "-x": (-1.0, 0.0, 0.0), "+y": (0.0, 1.0, 0.0),
              "-y": (0.0, -1.0, 0.0), "+z": (0.0, 0.0, 1.0), "-z": (0.0, 0.0, -1.0)}
 
@@ -169,6 +169,16 @@ class _Tumble:
 
 
 _Segment = _Move | _Tumble
+Counts = tuple[tuple[int, int, int], tuple[int, int, int], tuple[int, int, int], int]  # acc, gyr, mag, flex ADC
+
+
+@dataclass(frozen=True)
+class _Block:
+    """Samples simulated together: their index (block number), readings and the board's counts."""
+
+    index: int
+    readings: list[SensorReading]
+    counts: list[Counts]
 
 
 class SimulatedMaker:
@@ -192,7 +202,8 @@ class SimulatedMaker:
         self._simulator = Simulator(Chain((LinkSpec("board", 0.0),), (SensorSpec("imu", 0, (0.0, 0.0, 0.0)),)),
                                     Motion(self._root, lambda t: np.zeros((len(t), 0))), self.errors, seed=seed)
         self._stream: SampleStream = self._simulator.stream(rate_hz)
-        self._cache: tuple[int, list[SensorReading]] = (-1, [])
+        self._block_n = max(1, int(BLOCK_S * rate_hz))  # samples per block
+        self._cache = _Block(-1, [], [])
         self._epoch = 0.0  # the maker's time at the board's latest power-up
         self._board_t = 0.0  # the board's latest time asked for
         self.now = 0.0  # the maker's time of the latest reading
@@ -224,27 +235,41 @@ class SimulatedMaker:
         return self._at(self.now)
 
     def _at(self, t: float) -> SensorReading:
-        k = round(t * self.rate_hz)
-        b, i = divmod(k, BLOCK)
-        if self._cache[0] != b:
-            self._cache = (b, self._block(b * BLOCK, (b + 1) * BLOCK))
-        return self._cache[1][i]
+        return self._sample(t)[0]
 
-    def _block(self, k0: int, k1: int) -> list[SensorReading]:
-        data = self._stream.block(k0, k1)
+    def _sample(self, t: float) -> tuple[SensorReading, Counts]:
+        """The reading at the maker's time ``t`` and its counts as the board quantises them."""
+        b, i = divmod(round(t * self.rate_hz), self._block_n)
+        if self._cache.index != b:
+            self._cache = self._block(b)
+        return self._cache.readings[i], self._cache.counts[i]
+
+    def _block(self, b: int) -> _Block:
+        """Block ``b`` of samples simulated, as readings and as the board's counts
+        (:func:`tracker.board.quantise`'s rule, at the firmware's default full scales)."""
+        n = self._block_n
+        data = self._stream.block(b * n, (b + 1) * n)
         acc, gyr, mag = data.acc[:, 0], data.gyr[:, 0], data.mag[:, 0]
         q = data.truth.q_sensors[:, 0]
         if self.magnet is not None:
             mag = mag + Q.rotate(Q.conjugate(q), self.magnet.at(data.t))
-        return [SensorReading(acc=(a[0], a[1], a[2]), gyr=(g[0], g[1], g[2]), mag=(m[0], m[1], m[2]),
-                              flex_deg=0.0, flex_adc=int(f), q=(w[0], w[1], w[2], w[3]))
-                for a, g, m, f, w in zip(acc.tolist(), gyr.tolist(), mag.tolist(), data.flex_adc.tolist(),
-                                         q.tolist())]
+        s = BoardSettings()
+        counted = zip(counts(acc, acc_lsb(s.acc_fs_g)).tolist(), counts(gyr, gyr_lsb(s.gyr_fs_dps)).tolist(),
+                      counts(mag, MAG_UT_PER_COUNT).tolist())
+        readings = [SensorReading(acc=(a[0], a[1], a[2]), gyr=(g[0], g[1], g[2]), mag=(m[0], m[1], m[2]),
+                                  flex_deg=0.0, flex_adc=int(f), q=(w[0], w[1], w[2], w[3]))
+                    for a, g, m, f, w in zip(acc.tolist(), gyr.tolist(), mag.tolist(), data.flex_adc.tolist(),
+                                             q.tolist())]
+        return _Block(b, readings, [((a[0], a[1], a[2]), (g[0], g[1], g[2]), (m[0], m[1], m[2]), r.flex_adc)
+                                    for (a, g, m), r in zip(counted, readings)])
 
     def raw_sample(self, t: float, seq: int = 0) -> RawSample:
-        """The raw sample the board sends at board time ``t``, quantised as the firmware does."""
+        """The raw sample the board sends at board time ``t``: :meth:`reading` quantised as the firmware
+        does (:func:`tracker.board.quantise`), at its default full scales."""
+        self.reading(t)
+        acc, gyr, mag, flex = self._sample(self.now)[1]
         s = BoardSettings()
-        return quantise(self.reading(t), t, round(t * 1e6) & 0xFFFFFFFF, seq & 0xFFFF, s.acc_fs_g, s.gyr_fs_dps)
+        return RawSample(t, round(t * 1e6) & 0xFFFFFFFF, seq & 0xFFFF, acc, gyr, mag, flex, s.acc_fs_g, s.gyr_fs_dps)
 
     # ------------------------------------------------------------------ following the prompts
 
@@ -252,8 +277,8 @@ class SimulatedMaker:
         """Start ``segment`` (from where the plan has the board then), dropping what was planned after."""
         kept = tuple(s for s in self._plan if s.t0 < segment.t0)
         self._plan = kept + (segment,)
-        if (self._cache[0] + 1) * BLOCK >= segment.t0 * self.rate_hz:
-            self._cache = (-1, [])
+        if (self._cache.index + 1) * self._block_n >= segment.t0 * self.rate_hz:
+            self._cache = _Block(-1, [], [])
 
     def _where(self, t: float) -> Array:
         return self._root(np.array([t]))[0]

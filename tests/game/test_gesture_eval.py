@@ -60,13 +60,13 @@ def test_late_launches_are_those_made_in_the_last_quarter():
 
 
 def test_a_failed_maker_calibration_is_a_reported_figure(monkeypatch):
-    import game.gesture_eval as E
+    from tracker import accel_procedure
     from tracker.calibration import SixPoseResult
 
-    def refuse(poses):
+    def refuse(poses, params=None):
         return SixPoseResult(False, "pose +x moved", np.zeros(3), np.ones(3), np.eye(3), math.nan)
 
-    monkeypatch.setattr(E, "six_pose_calibration", refuse)
+    monkeypatch.setattr(accel_procedure, "six_pose_calibration", refuse)
     result = run_trial(PlayerProfile(), 5, gestures=1)
     assert not result.calibration_ok
     assert result.calibration.startswith("six-pose calibration failed: pose +x moved")
@@ -127,13 +127,16 @@ def test_envelope_and_profile_do_not_go_together(tmp_path):
 
 @pytest.mark.parametrize("name", ["typical", "magnetic_room"])
 def test_the_simulated_maker_recovers_the_boards_own_errors(name):
-    from game.gesture_eval import _on_the_table, _tumble, maker_calibration
+    from game.gesture_eval import maker_calibration
     from game.motion_model import catalogue
+    from tracker.sim import Chain, LinkSpec, Motion, SensorSpec, Simulator
 
     profile = catalogue()[name]
     cal, problem = maker_calibration(profile, seed=9)
     assert problem is None
-    truth = _on_the_table(profile, 9, _tumble, 0.1)  # the same board: the errors it drew
+    board = Chain((LinkSpec("board", 0.0),), (SensorSpec("imu", 0, (0.0, 0.0, 0.0)),))
+    still = Motion(lambda t: np.tile([1.0, 0.0, 0.0, 0.0], (len(t), 1)), lambda t: np.zeros((len(t), 0)))
+    truth = Simulator(board, still, profile.sensor_errors(), seed=9).simulate(0.1, 200.0)  # the errors it drew
     assert np.linalg.norm(cal.mag_hard_iron - truth.hard_iron[0]) < 0.5  # uT, of 30-150 uT
     inverse = np.linalg.inv(truth.soft_iron[0])
     w_true = inverse / np.linalg.det(inverse) ** (1 / 3)  # the fit's scale: det W = 1
