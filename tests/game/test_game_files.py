@@ -8,6 +8,7 @@ property tests that feed random JSON and random bytes to every loader.
 import dataclasses
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -29,6 +30,8 @@ from game.motion_model import PlayerProfile  # noqa: E402
 from game.players import Player, ProfileError  # noqa: E402
 from game.preferences import FLEX_GAP_DEG, Preferences, Score, load_preferences, load_scores  # noqa: E402
 from tracker.flex import FlexCalibration  # noqa: E402
+
+from ..unavailable import unavailable  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 DT = 1 / 60
@@ -233,19 +236,6 @@ def test_a_config_folder_that_is_a_file_means_defaults_and_nothing_saved(config,
     assert config.read_text() == "not a folder"
 
 
-@pytest.mark.skipif(os.geteuid() == 0, reason="root reads and writes a chmod 000 folder")
-def test_an_unreadable_config_folder_means_defaults_and_nothing_saved(config, start):
-    (config / "settings.json").write_text('{"side": "left"}')
-    config.chmod(0)
-    try:
-        app, err = start()
-        assert app.game.prefs == Preferences(input="keyboard")
-        assert "cannot be read (Permission denied)" in err[0]
-        assert "settings and high scores will not be saved" in err[-1]
-    finally:
-        config.chmod(0o755)
-
-
 def test_permission_denied_is_a_notice_also_where_root_would_not_get_it(config, start, monkeypatch):
     """Root bypasses chmod 000: the errors a user would get are given to the app instead."""
     (config / "settings.json").write_text('{"side": "left"}')
@@ -300,6 +290,35 @@ def test_energyball_starts_on_damaged_files_and_says_so(tmp_path):
         "raise_deg", "flex_on_deg", "flex_off_deg", "1"]
     assert "not 1e999" in lines[3]
     assert snapshot(folder) == before
+
+
+def test_an_unreadable_config_folder_means_defaults_and_nothing_saved(tmp_path):
+    """``chmod 000 ~/.config/energyball``, through the real command. Root's capabilities to read
+    and write past permissions (CAP_DAC_OVERRIDE, CAP_DAC_READ_SEARCH) are dropped for the game
+    (setpriv), so root meets the folder as its owner would."""
+    as_owner = []
+    if os.geteuid() == 0:
+        if not shutil.which("setpriv"):
+            unavailable("setpriv (util-linux) is needed to drop root's file capabilities", "util-linux is required")
+        caps = "-dac_override,-dac_read_search"
+        as_owner = ["setpriv", f"--bounding-set={caps}", f"--inh-caps={caps}"]
+    folder = tmp_path / ".config" / "energyball"
+    folder.mkdir(parents=True)
+    (folder / "settings.json").write_text('{"side": "left"}')
+    folder.chmod(0)
+    try:
+        env = {**os.environ, "HOME": str(tmp_path), "SDL_VIDEODRIVER": "dummy", "SDL_AUDIODRIVER": "dummy"}
+        env.pop("XDG_CONFIG_HOME", None)
+        r = subprocess.run([*as_owner, sys.executable, "-c", QUIT_AT_ONCE, "--keyboard"], capture_output=True,
+                           text=True, env=env, cwd=ROOT, timeout=120)
+    finally:
+        folder.chmod(0o755)
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+    lines = [line for line in r.stderr.splitlines() if line.startswith("energyball: ")]
+    assert "settings.json cannot be read (Permission denied); using the default settings" in lines[0]
+    assert lines[-1].endswith("cannot be written: settings and high scores will not be saved")
+    assert sorted(p.name for p in folder.iterdir()) == ["settings.json"]
+    assert (folder / "settings.json").read_text() == '{"side": "left"}'
 
 
 # ----------------------------------------------------------------- random files
