@@ -23,14 +23,19 @@ import json
 import sys
 import time
 from pathlib import Path
-from typing import Callable, Iterator, Sequence
+from typing import TYPE_CHECKING, Callable, Iterable, Iterator, Sequence
 
 from . import bench, protocol as P, signals
 from .atomic import OutputError, check_output, discard_pending, same_output
+from .calibration import BoardCalibration, CalibrationFileError, Corrected, load_for_hello
 from .evaluate import DatasetError
 from .link import Link, LinkError, LinkSettings, find_boards, list_serial_ports
 from .options import Parser, Ranged
 from .recording import CsvRecorder, RawRecorder, RecordingError, Replay, summarize
+
+if TYPE_CHECKING:
+    from .board import VirtualBoard
+    from .motion import MotionSource
 
 EXIT_ERROR = 1
 STATUS_INTERVAL_S = 0.25
@@ -42,6 +47,13 @@ SECONDS = Ranged(float, 0, above=True)
 SPEED = Ranged(float, 0.01, 1000)  # 100 times slower to 1000 times faster; --fast for no pacing at all
 PROBABILITY = Ranged(float, 0, 1)
 SEED = Ranged(int, 0)
+# The simulated board's errors for `calibrate --virtual`: a player profile's ranges (tracker.sim.MagneticErrors,
+# ErrorModel: 0-200 uT of hard iron, 0-20 % of soft iron, 0-40 uT of room disturbance, noise up to 20 times
+# the data sheet's).
+HARD_IRON = Ranged(float, 0, 200)
+SOFT_IRON = Ranged(float, 0, 20)
+ROOM = Ranged(float, 0, 40)
+NOISE_SCALE = Ranged(float, 0, 20)
 
 
 class UsageError(Exception):
@@ -51,34 +63,40 @@ class UsageError(Exception):
 # ----------------------------------------------------------------- sources
 
 
-def add_source_options(p: argparse.ArgumentParser) -> None:
-    """The options every command that reads a board takes."""
+def add_source_options(p: argparse.ArgumentParser, modes: bool = True) -> None:
+    """The options every command that reads a board takes (``--mode`` only where fused samples serve)."""
     src = p.add_mutually_exclusive_group()
     src.add_argument("--port", help="serial port or pyserial URL (default: the first board found)")
     src.add_argument("--virtual", action="store_true", help="use a virtual board on a pty")
     p.add_argument("--baud", type=BAUD, help=f"baud rate, {BAUD.text} (default: 115200, falling back to 9600)")
     p.add_argument("--rate", type=RATE, default=200, help=f"samples per second to ask for, {RATE.text} (200)")
-    p.add_argument("--mode", choices=["raw", "fused"], default="raw",
-                   help="raw sensor counts, or the board's own fused orientation")
+    if modes:
+        p.add_argument("--mode", choices=["raw", "fused"], default="raw",
+                       help="raw sensor counts, or the board's own fused orientation")
 
 
 @contextlib.contextmanager
-def open_source(args: argparse.Namespace, tap: Callable[[bytes], None] | None = None) -> Iterator[Link]:
-    """Open the board the options name (a virtual one for ``--virtual``); ``tap`` sees every byte read."""
+def open_source(args: argparse.Namespace, tap: Callable[[bytes], None] | None = None,
+                motion: MotionSource | None = None) -> Iterator[tuple[Link, VirtualBoard | None]]:
+    """Open the board the options name (a virtual one for ``--virtual``, moved by ``motion``, default
+    the simulated arm); ``tap`` sees every byte read. Yields the link and the virtual board, if any."""
     with contextlib.ExitStack() as stack:
+        board = None
         if args.virtual:
             from .board import VirtualBoard  # POSIX only: imported when asked for
-            port = stack.enter_context(VirtualBoard()).port
+            board = stack.enter_context(VirtualBoard(motion=motion))
+            port = board.port
         elif args.port:
             port = args.port
         else:
             port = _autodetect()
-        settings = LinkSettings(port, baud=args.baud, rate_hz=args.rate, mode=P.Mode[args.mode.upper()])
+        mode = P.Mode[getattr(args, "mode", "raw").upper()]
+        settings = LinkSettings(port, baud=args.baud, rate_hz=args.rate, mode=mode)
         link = Link(settings)
         link.tap = tap
         stack.callback(link.close)  # before open: an interruption mid-handshake still stops its reader
         link.open()
-        yield link
+        yield link, board
 
 
 def _autodetect() -> str:
@@ -104,15 +122,24 @@ def sample_json(s: P.RawSample | P.FusedSample | None) -> dict | None:
     return {"t": s.t, "seq": s.seq, "q": list(s.q), "flex_deg": s.flex_deg}
 
 
-def _vec(v: Sequence[float] | None) -> str:
+def corrected_json(c: Corrected | None) -> dict | None:
+    """A calibrated sample's readings as JSON (SI units)."""
+    if c is None:
+        return None
+    return {"acc": list(c.acc), "gyr": list(c.gyr), "mag": list(c.mag) if c.mag is not None else None}
+
+
+def _vec(v: Iterable[float] | None) -> str:
     return "(" + " ".join(f"{x:6.2f}" for x in v) + ")" if v is not None else "(none)"
 
 
-def sample_text(s: P.RawSample | P.FusedSample | None) -> str:
+def sample_text(s: P.RawSample | P.FusedSample | None, corrected: Corrected | None = None) -> str:
+    """A sample in one line; a raw one's readings as ``corrected`` by the board's calibration if given."""
     if s is None:
         return "no sample yet"
     if isinstance(s, P.RawSample):
-        return f"acc {_vec(s.acc)} m/s2  gyr {_vec(s.gyr)} rad/s  mag {_vec(s.mag)} uT  flex {s.flex_adc:4d}"
+        acc, gyr, mag = corrected if corrected is not None else (s.acc, s.gyr, s.mag)
+        return f"acc {_vec(acc)} m/s2  gyr {_vec(gyr)} rad/s  mag {_vec(mag)} uT  flex {s.flex_adc:4d}"
     return f"q {_vec(s.q)}  flex {s.flex_deg:6.1f} deg"
 
 
@@ -165,8 +192,9 @@ def cmd_ports(args: argparse.Namespace) -> int:
 
 
 class MonitorFusion:
-    """The default filter run on the raw samples a monitor shows, to say what it makes of the
-    magnetometer (:attr:`DefaultFilter.status`); fused samples are the board's own estimate."""
+    """The default filter run on the raw samples a monitor shows, calibrated as the board's file
+    says, to say what it makes of the magnetometer (:attr:`DefaultFilter.status`); fused samples
+    are the board's own estimate."""
 
     MAX_GAP_S = 0.5  # a longer gap between samples (link loss) keeps the last good time step
 
@@ -176,13 +204,16 @@ class MonitorFusion:
         self._last_t: float | None = None
         self._dt = 0.005
 
-    def feed(self, s: P.RawSample | P.FusedSample) -> None:
+    def feed(self, s: P.RawSample | P.FusedSample, corrected: Corrected | None = None) -> None:
+        """One sample (fused ones are ignored); a raw one's readings ``corrected`` by the board's
+        calibration if given."""
         if not isinstance(s, P.RawSample):
             return
         if self._last_t is not None and 0.0 < s.t - self._last_t < self.MAX_GAP_S:
             self._dt = s.t - self._last_t
         self._last_t = s.t
-        self.filter.update(s.gyr, s.acc, s.mag, self._dt)
+        acc, gyr, mag = corrected if corrected is not None else (s.acc, s.gyr, s.mag)
+        self.filter.update(gyr, acc, mag, self._dt)
 
     @property
     def status(self) -> str:
@@ -190,18 +221,33 @@ class MonitorFusion:
         return self.filter.status if self._last_t is not None else ""
 
 
+def _calibration_json(cal: BoardCalibration, notice: str, hello: P.Hello | None) -> dict:
+    """What monitor reports of the calibration it applies."""
+    return {"board_id": cal.board_id if hello else None, "notice": notice,
+            "procedures": {r.name: r.to_json() for r in cal.procedures}}
+
+
 def cmd_monitor(args: argparse.Namespace) -> int:
     status = StatusLine()
-    last = None
+    last: P.RawSample | P.FusedSample | None = None
+    corrected: Corrected | None = None
     fusion = MonitorFusion()
-    with open_source(args) as link:
+    with open_source(args) as (link, _):
+        cal, notice = load_for_hello(link.hello, virtual=args.virtual)  # raw samples shown and fused calibrated
+        if args.mode == "fused":
+            notice += "; it applies to raw samples only (the board fuses its own readings)"
+        print(notice, file=sys.stderr, flush=True)
         end = _until(args.seconds)
         try:
             while time.monotonic() < end:
                 for s in link.drain():
                     last = s
-                    fusion.feed(s)
-                status.show(_health_text(link) + sample_text(last) + (f"  {fusion.status}" if fusion.status else ""))
+                    if isinstance(s, P.RawSample):
+                        corrected = cal.apply(s)
+                        fusion.feed(s, corrected)
+                shown = corrected if isinstance(last, P.RawSample) else None
+                status.show(_health_text(link) + sample_text(last, shown)
+                            + (f"  {fusion.status}" if fusion.status else ""))
                 time.sleep(0.02)
         except KeyboardInterrupt:
             pass
@@ -211,6 +257,8 @@ def cmd_monitor(args: argparse.Namespace) -> int:
         report = {"frames": stats.frames, "rate_hz": h.rate_hz, "crc_errors": stats.crc_errors,
                   "dropped": stats.dropped, "bytes_skipped": stats.bytes_skipped,
                   "hello": link.hello.to_json() if link.hello else None, "last": sample_json(last),
+                  "last_calibrated": corrected_json(corrected) if isinstance(last, P.RawSample) else None,
+                  "calibration": _calibration_json(cal, notice, link.hello),
                   "link": h.to_json(), "seconds": elapsed, "magnetometer": fusion.status or None}
     if args.json:
         print(json.dumps(report))
@@ -236,7 +284,7 @@ def cmd_record(args: argparse.Namespace) -> int:
     raw = RawRecorder(args.raw)
     table: CsvRecorder | None = None
     with contextlib.ExitStack() as ending:
-        with open_source(args, tap=raw.write) as link:
+        with open_source(args, tap=raw.write) as (link, _):
             legacy = link.health().legacy_text
             header = {"created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "port": link.settings.port,
                       "legacy_text": legacy, "text_order": link.settings.text_order,
@@ -375,6 +423,65 @@ def cmd_virtual(args: argparse.Namespace) -> int:
     return 0
 
 
+def unplug_spec(text: str) -> tuple[float, float]:
+    """``--unplug SECONDS@AT``: the virtual cable pulled AT seconds into the procedure, for SECONDS."""
+    seconds, sep, at = text.partition("@")
+    try:
+        value = (SECONDS(at), SECONDS(seconds)) if sep else None
+    except argparse.ArgumentTypeError:
+        value = None
+    if value is None:
+        raise argparse.ArgumentTypeError(f"must be SECONDS@AT with two numbers above 0 (e.g. 1.5@6), "
+                                         f"not {text[:40]!r}")
+    return value
+
+
+_SIMULATED = ("unplug", "seed", "hard_iron", "soft_iron", "room", "noise_scale", "magnet", "nudge", "repeat_face")
+
+
+def seconds_list(text: str) -> tuple[float, ...]:
+    """``AT[,AT...]``: times in seconds, each above 0."""
+    try:
+        return tuple(SECONDS(part) for part in text.split(","))
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"must be seconds above 0, separated by commas (e.g. 1.5,12), "
+                                         f"not {text[:40]!r}") from None
+
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    from . import calibrate_cli as K
+    if args.procedure == "show":
+        text, problems = K.show(args.json)
+        if text:
+            print(text)
+        for problem in problems:
+            print(f"armtracker: {problem}", file=sys.stderr)
+        return EXIT_ERROR if problems else 0
+    given = [name for name in _SIMULATED if getattr(args, name) not in (None, False)]
+    if given and not args.virtual:
+        raise UsageError(f"--{given[0].replace('_', '-')} describes the simulated board and maker: "
+                         "it needs --virtual")
+    maker = K.VirtualMaker(args.seed or 0, 1.0 if args.noise_scale is None else args.noise_scale,
+                           args.hard_iron, args.soft_iron, args.room, args.magnet, args.nudge or (),
+                           args.repeat_face).maker() if args.virtual else None
+    term = K.Terminal()
+    with open_source(args, motion=maker) as (link, board):
+        with contextlib.ExitStack() as faults:
+            if board is not None and args.unplug:
+                faults.enter_context(K.unplugging(board, *args.unplug))
+            try:
+                report = K.calibrate(args.procedure, link, term, args.seconds, maker)
+            except K.CalibrationRefused as e:
+                term.done()
+                print(f"armtracker: calibrate {args.procedure}: {e}", file=sys.stderr)
+                return EXIT_ERROR
+            except KeyboardInterrupt:
+                term.say(f"calibrate {args.procedure}: interrupted; nothing was saved")
+                raise
+    print(json.dumps(report.values) if args.json else "\n".join(report.lines))
+    return 0
+
+
 def _wait(seconds: float | None) -> None:
     """Sleep ``seconds``, or until interrupted when None."""
     end = _until(seconds)
@@ -446,6 +553,34 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="one line of JSON")
     p.set_defaults(func=cmd_experiment)
 
+    p = sub.add_parser("calibrate", help="the maker's calibrations of a board: accel, mag; show what is saved")
+    steps = p.add_subparsers(dest="procedure", required=True, metavar="PROCEDURE")
+    for name, text, limit in (("accel", "six poses: each face of the board up in turn", "300"),
+                              ("mag", "turn the board through all orientations", "180")):
+        q = steps.add_parser(name, help=text)
+        add_source_options(q, modes=False)
+        q.add_argument("--seconds", type=SECONDS,
+                       help=f"give up (saving nothing) after this long, {SECONDS.text} ({limit})")
+        q.add_argument("--json", action="store_true", help="print the result as JSON")
+        v = q.add_argument_group("the simulated board and maker (with --virtual)")
+        v.add_argument("--seed", type=SEED, help=f"seed of its errors and the maker's hands, {SEED.text} (0)")
+        v.add_argument("--hard-iron", type=HARD_IRON, metavar="UT", help=f"hard iron, uT, {HARD_IRON.text} (30)")
+        v.add_argument("--soft-iron", type=SOFT_IRON, metavar="PCT", help=f"soft iron, %%, {SOFT_IRON.text} (5)")
+        v.add_argument("--room", type=ROOM, metavar="UT", help=f"the room's field disturbance, uT, {ROOM.text} (5)")
+        v.add_argument("--noise-scale", type=NOISE_SCALE, help=f"times the data sheet's noise, {NOISE_SCALE.text} (1)")
+        v.add_argument("--unplug", type=unplug_spec, metavar="SECONDS@AT",
+                       help="pull the virtual cable AT seconds into the procedure for SECONDS")
+        v.add_argument("--magnet", type=SECONDS, metavar="AT",
+                       help="the maker brings a magnet near the board AT seconds in (for 10 s)")
+        v.add_argument("--nudge", type=seconds_list, metavar="AT[,AT...]",
+                       help="the maker bumps the board AT seconds in (each time given)")
+        v.add_argument("--repeat-face", action="store_true",
+                       help="the maker lays the first face down twice before obeying")
+        q.set_defaults(func=cmd_calibrate)
+    q = steps.add_parser("show", help="what is saved, for which board, and when")
+    q.add_argument("--json", action="store_true")
+    q.set_defaults(func=cmd_calibrate)
+
     p = sub.add_parser("virtual", help="serve a virtual board on a pty for other programs")
     p.add_argument("--link", help="stable path to create for the pty (a symlink)")
     p.add_argument("--rate", type=RATE, default=200, help=f"samples per second, {RATE.text} (200)")
@@ -464,7 +599,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the parsed command; a failure the user can cause is one line on stderr and exit 1."""
     try:
         return args.func(args)
-    except (LinkError, RecordingError, DatasetError, UsageError, OutputError) as e:
+    except (LinkError, RecordingError, DatasetError, UsageError, OutputError, CalibrationFileError) as e:
         print(f"armtracker: {e}", file=sys.stderr)
     except OSError as e:  # e.g. an input file that cannot be read
         print(f"armtracker: {e.filename + ': ' if e.filename else ''}{e.strerror or e}", file=sys.stderr)

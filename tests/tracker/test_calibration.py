@@ -487,11 +487,6 @@ def test_bad_values_are_refused():
         C.BoardCalibration("../escape")
 
 
-def test_board_id_is_a_safe_file_name():
-    assert C.make_board_id("EnergyBall fw 1.2", "Zoë K") == "EnergyBall-fw-1.2_Zo-K"
-    assert C.make_board_id("///", "") == "default"
-
-
 def test_save_and_load_round_trip_atomically(tmp_path):
     cal = calibrated()
     path = C.save(cal, tmp_path / "boards")

@@ -1,0 +1,472 @@
+"""The maker's calibrations in the terminal: ``armtracker calibrate accel``, ``calibrate mag``, ``calibrate show``.
+
+The procedures themselves (what to ask for, when a pose is captured, the
+fits) are :mod:`tracker.accel_procedure` and :mod:`tracker.mag_procedure`,
+which the game's Board setup screen runs too. This module is their terminal
+side: it feeds them the link's raw samples, shows their status on a live line
+(:class:`Terminal`), says what happened on lines that stay (prompts, captures,
+refusals, a pulled cable and the board's return), saves the result in the
+board's file (:func:`tracker.calibration.save_procedure`: atomically, the other
+procedure's fields kept, a damaged file copied aside first) and reports it, as
+JSON with ``--json``.
+
+With ``--virtual`` a simulated maker (:class:`tracker.maker_sim.SimulatedMaker`)
+holds the virtual board and follows the same prompts (:meth:`follow` after
+every poll), so the whole procedure runs unattended through a real pty, and
+the report adds the errors left after the fit against the simulated board's
+true errors (:func:`tracker.maker_sim.calibration_errors`).
+
+A pulled cable: the link reconnects by itself (:mod:`tracker.link`); the
+procedure is told (``interrupted()``: captured poses and readings are kept)
+and carries on when the board is back. Ctrl-C, SIGTERM or SIGHUP end the
+command with nothing saved (the file is written only once the fit is done,
+atomically), exit 128 + the signal's number.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import sys
+import threading
+import time
+from dataclasses import dataclass, field, replace
+from typing import IO, Callable, Generic, Iterator, Protocol, Sequence, TypeVar
+
+import numpy as np
+
+from . import calibration as C
+from .accel_procedure import FACES, AccelProcedure, AccelStatus
+from .board import VirtualBoard
+from .link import Link
+from .mag_procedure import MagProcedure, MagStatus
+from .magfit import MagFitError
+from .maker_sim import Magnet, SimulatedMaker, calibration_errors
+from .protocol import BoardError, Hello, RawSample
+from .sim import SCALE_TOLERANCE, realistic_errors
+
+POLL_S = 0.02  # how often the loop drains the link, feeds the procedure and redraws (50 Hz)
+LIVE_INTERVAL_S = 0.25  # the live line on a terminal; elsewhere (a log, a test) once a second
+ACCEL_SECONDS = 300.0  # the longest an accelerometer calibration may take before it is refused
+MAG_SECONDS = 180.0  # the same for the magnetometer: turning through all orientations takes a minute or two
+COVERAGE_STEP = 0.25  # say so each time another quarter of the directions is covered
+SETTLED_S = 0.5  # a board this long on a face captured already was laid there, not turned past it (0.2 s)
+
+# Which way each face is for a maker holding the board (the MPU-9250's axes, printed on breakouts).
+FACE_HINTS = {"+z": "chip side up", "-z": "chip side down", "+x": "the x arrow pointing up",
+              "-x": "the x arrow pointing down", "+y": "the y arrow pointing up",
+              "-y": "the y arrow pointing down"}
+# How `calibrate show` writes a procedure's figures (ProcedureRecord.figures), by name.
+FIGURES = {"residual_m_s2": "residual {:.4f} m/s^2", "residual_ut": "residual {:.2f} uT",
+           "strength_ut": "field {:.1f} uT", "dip_deg": "dip {:.1f} deg"}
+# The figures --json reports against the simulated board's truth (tracker.maker_sim.calibration_errors).
+TRUTH_ERRORS = {"accel": ("acc_offset_error_mg", "acc_scale_error_pct"),
+                "mag": ("mag_hard_iron_error_ut", "mag_soft_iron_error_pct")}
+
+Status = TypeVar("Status", AccelStatus, MagStatus)
+Shown = TypeVar("Shown", covariant=True)
+
+
+class Procedure(Protocol[Shown]):
+    """What the loop needs of :class:`AccelProcedure` and :class:`MagProcedure`."""
+
+    @property
+    def status(self) -> Shown: ...
+
+    def feed(self, sample: RawSample) -> Shown: ...
+
+    def interrupted(self) -> None: ...
+
+
+class CalibrationRefused(Exception):
+    """A procedure that gave no calibration (nothing saved), worded for the maker."""
+
+
+# ----------------------------------------------------------------- the terminal
+
+
+class Terminal:
+    """The live status line and the lines that stay, on stderr.
+
+    On a terminal the live line is redrawn in place at most every
+    :data:`LIVE_INTERVAL_S`; elsewhere it is written as a plain line once a
+    second. A line that stays first clears the live line.
+    """
+
+    def __init__(self, stream: IO[str] | None = None) -> None:
+        self.stream = stream or sys.stderr
+        self.tty = self.stream.isatty()
+        self._next = 0.0
+        self._live = False
+
+    def show(self, text: str) -> None:
+        now = time.monotonic()
+        if now < self._next:
+            return
+        self._next = now + (LIVE_INTERVAL_S if self.tty else 1.0)
+        self._write("\r\x1b[K" + text if self.tty else text + "\n")
+        self._live = self.tty
+
+    def say(self, text: str) -> None:
+        self._write(("\r\x1b[K" if self._live else "") + text + "\n")
+        self._live = False
+        self._next = 0.0  # the live line again at once, below it
+
+    def done(self) -> None:
+        """Clear the live line (a terminal's cursor goes back to the line's start)."""
+        if self._live:
+            self._write("\r\x1b[K")
+            self._live = False
+
+    def _write(self, text: str) -> None:
+        """One write, so that a signal never cuts a line in two (its handler runs between calls)."""
+        self.stream.write(text)
+        self.stream.flush()
+
+
+# ----------------------------------------------------------------- the loop
+
+
+@dataclass
+class LinkWatch:
+    """Notices a pulled cable and the board's return from the link's state at each poll.
+
+    An outage is the link disconnected, or a reconnection that happened between
+    two polls (so one too short to be seen disconnected still counts).
+    """
+
+    reconnects: int
+    outage: bool = False
+    interruptions: int = 0
+
+    def update(self, connected: bool, reconnects: int) -> tuple[bool, bool]:
+        """(the board went away, it came back) since the last poll."""
+        lost = back = False
+        if (not connected or reconnects != self.reconnects) and not self.outage:
+            self.outage, lost = True, True
+            self.interruptions += 1
+        self.reconnects = reconnects
+        if connected and self.outage:
+            self.outage, back = False, True
+        return lost, back
+
+
+@dataclass
+class Steps(Generic[Status]):
+    """How the loop treats one procedure: when it is finished, its live line, what to say as it goes."""
+
+    finished: Callable[[Status], bool]
+    live: Callable[[Status], str]
+    narrate: Callable[[Status | None, Status, "Terminal"], None]
+
+
+def run_procedure(link: Link, procedure: Procedure[Status], steps: Steps[Status], term: Terminal,
+                  seconds: float, maker: SimulatedMaker | None = None) -> tuple[Status, int]:
+    """Feed the link's raw samples to ``procedure`` until it is finished or ``seconds`` pass.
+
+    Each poll: drain the link, feed the raw samples, tell the procedure of a
+    pulled cable (after the samples that came before it), say what changed,
+    let the simulated maker follow the prompt, redraw the live line. Returns
+    the last status and how many times the board went away.
+    """
+    watch = LinkWatch(link.health().reconnects)
+    end = time.monotonic() + seconds
+    status = procedure.status
+    steps.narrate(None, status, term)
+    while True:
+        connected, reconnects = link.connected, link.health().reconnects  # before draining: see above
+        for s in link.drain():
+            if isinstance(s, RawSample):
+                procedure.feed(s)
+        lost, back = watch.update(connected, reconnects)
+        if lost:
+            procedure.interrupted()
+            term.say("the board went away (cable pulled?): waiting for it to come back; "
+                     "what was captured is kept")
+        if back:
+            term.say("the board is back: carrying on")
+        previous, status = status, procedure.status
+        steps.narrate(previous, status, term)
+        if steps.finished(status) or time.monotonic() >= end:
+            term.done()
+            return status, watch.interruptions
+        if maker is not None:
+            maker.follow(status)
+        term.show(("[board away] " if watch.outage else "") + steps.live(status))
+        time.sleep(POLL_S)
+
+
+# ----------------------------------------------------------------- accelerometer
+
+
+def _face(face: str) -> str:
+    return f"{face} up ({FACE_HINTS[face]})"
+
+
+@dataclass
+class AccelNarrator:
+    """Says the first prompt, each capture and the next face, a face laid down again after its capture,
+    and a board that moved during a pose.
+
+    A captured face is said to be "already captured" only once the board has
+    stayed on it for :data:`SETTLED_S`: a turn between two faces passes others
+    for a fifth of a second or so, and that is no mistake of the maker's.
+    """
+
+    again: tuple[str, float] | None = None  # the captured face up again, since when (monotonic s)
+    said_again: bool = False
+
+    def __call__(self, before: AccelStatus | None, st: AccelStatus, term: Terminal) -> None:
+        if before is None:
+            term.say("six poses: lay the board flat, each face up in turn; a pose is captured once the board "
+                     f"has lain still on it for a moment. Put {_face(st.asked or FACES[0])}")
+            return
+        for face in st.captured[len(before.captured):]:
+            term.say(f"captured {face} ({len(st.captured)} of 6)"
+                     + (f"; now put {_face(st.asked)}" if st.asked else ""))
+        if "moved" in st.message and "moved" not in before.message:
+            term.say(st.message)
+        again = st.up if st.up is not None and "already captured" in st.message else None
+        if again is None or self.again is None or self.again[0] != again:
+            self.again, self.said_again = ((again, time.monotonic()) if again else None), False
+        elif not self.said_again and time.monotonic() - self.again[1] >= SETTLED_S:
+            term.say(st.message)
+            self.said_again = True
+
+
+def live_accel(st: AccelStatus) -> str:
+    marks = " ".join(f if f in st.captured else "  " for f in FACES)
+    return f"[{marks}]  {st.message}"
+
+
+
+
+def finish_accel(board_id: str, procedure: AccelProcedure, status: AccelStatus,
+                 seconds: float) -> tuple[C.BoardCalibration, C.ProcedureRecord, dict, list[str]]:
+    """The calibration of a finished accelerometer procedure, its record, its report; refused when
+    not all six faces were captured in time or their fit failed."""
+    if not status.done:
+        missing = [f for f in FACES if f not in status.captured]
+        raise CalibrationRefused(f"only {6 - len(missing)} of 6 faces captured in {seconds:g} s "
+                                 f"({', '.join(missing)} still to do); nothing was saved")
+    result = procedure.result()
+    if not result.ok:
+        raise CalibrationRefused(f"{result.message}; nothing was saved")
+    fitted = C.BoardCalibration(board_id, acc_offset=result.offset, acc_scale=result.scale,
+                                acc_misalignment=result.misalignment)
+    values = {"faces": list(status.captured), "acc_offset": fitted.acc_offset.tolist(),
+              "acc_scale": fitted.acc_scale.tolist(), "acc_misalignment": fitted.acc_misalignment.tolist(),
+              "residual_m_s2": result.residual}
+    return fitted, C.ProcedureRecord.now("accel", {"residual_m_s2": result.residual}), values, \
+        [f"accelerometer: {result.message}"]
+
+
+# ----------------------------------------------------------------- magnetometer
+
+
+@dataclass
+class MagNarrator:
+    """Says the first prompt, each further quarter of coverage and each new problem."""
+
+    said_coverage: float = 0.0
+    said_problem: str = ""
+
+    def __call__(self, before: MagStatus | None, st: MagStatus, term: Terminal) -> None:
+        if before is None:
+            term.say("turn the board slowly through all orientations (every face up, every heading), "
+                     "away from magnets, speakers and steel")
+        while st.coverage >= self.said_coverage + COVERAGE_STEP:
+            self.said_coverage += COVERAGE_STEP
+            term.say(f"{self.said_coverage:.0%} of the directions covered")
+        if st.problem and st.problem != self.said_problem:
+            term.say(st.problem)
+        self.said_problem = st.problem
+
+
+def live_mag(st: MagStatus) -> str:
+    return f"covered {st.coverage:4.0%}  field {st.field_ut:6.1f} uT  {st.message}"
+
+
+def finish_mag(board_id: str, procedure: MagProcedure, status: MagStatus,
+               seconds: float) -> tuple[C.BoardCalibration, C.ProcedureRecord, dict, list[str]]:
+    """The magnetometer procedure's fit as a calibration, its record, its report; refused with the
+    procedure's reason (too little coverage, a magnet, a changing field)."""
+    try:
+        result = procedure.finish()
+    except MagFitError as e:
+        late = "" if status.ready or status.problem else f"after {seconds:g} s, "
+        raise CalibrationRefused(f"{late}{e}; nothing was saved") from None
+    fitted = C.BoardCalibration(board_id, mag_hard_iron=np.array(result.fit.offset),
+                                mag_soft_iron=np.array(result.fit.soft_iron))
+    figures = {"residual_ut": result.residual_ut, "strength_ut": result.strength_ut, "dip_deg": result.dip_deg}
+    values = {"coverage": status.coverage, "mag_hard_iron": fitted.mag_hard_iron.tolist(),
+              "mag_soft_iron": fitted.mag_soft_iron.tolist(), **figures}
+    line = (f"magnetometer: hard iron ({_numbers(fitted.mag_hard_iron, '{:+.1f}')}) uT, soft iron rows "
+            f"{_rows(fitted.mag_soft_iron)}; residual {result.residual_ut:.2f} uT, field "
+            f"{result.strength_ut:.1f} uT, dip {result.dip_deg:.1f} deg")
+    return fitted, C.ProcedureRecord.now("mag", figures), values, [line]
+
+
+# ----------------------------------------------------------------- the commands
+
+
+@dataclass(frozen=True)
+class VirtualMaker:
+    """The simulated board and maker of ``--virtual``.
+
+    The board's errors are :func:`tracker.sim.realistic_errors` with the figures
+    given (None: its typical ones) and the accelerometer's sensitivity
+    tolerance, as :func:`tracker.maker_sim.maker_errors` gives a fresh board.
+    The maker's slips: a magnet brought near at ``magnet_at`` s, the board
+    bumped at ``nudges``, the first face laid down twice (``repeat_face``).
+    """
+
+    seed: int = 0
+    noise_scale: float = 1.0
+    hard_iron_ut: float | None = None
+    soft_iron_pct: float | None = None
+    room_ut: float | None = None
+    magnet_at: float | None = None
+    nudges: tuple[float, ...] = ()
+    repeat_face: bool = False
+
+    def maker(self) -> SimulatedMaker:
+        figures = {"mag_hard_iron_ut": self.hard_iron_ut, "mag_soft_iron_pct": self.soft_iron_pct,
+                   "mag_disturbance_ut": self.room_ut}
+        errors = realistic_errors(noise_scale=self.noise_scale, **{k: v for k, v in figures.items() if v is not None})
+        errors = replace(errors, acc=replace(errors.acc, scale_max=SCALE_TOLERANCE))
+        magnet = Magnet(self.magnet_at, self.magnet_at + 10.0) if self.magnet_at is not None else None
+        return SimulatedMaker(errors, seed=self.seed, magnet=magnet, nudges=self.nudges,
+                              repeat_face=self.repeat_face)
+
+
+@contextlib.contextmanager
+def unplugging(board: VirtualBoard, at: float, seconds: float) -> Iterator[None]:
+    """Pull the virtual board's cable ``at`` seconds from now and plug it in ``seconds`` later."""
+    stop = threading.Event()
+
+    def run() -> None:
+        if stop.wait(at):
+            return
+        board.pull_cable()
+        if not stop.wait(seconds):
+            board.plug_in()
+
+    thread = threading.Thread(target=run, name="unplug", daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join(timeout=2)
+
+
+def board_identity(link: Link, procedure: str, virtual: bool) -> tuple[Hello, str]:
+    """The board's HELLO and id; refused for a board that did not identify itself, or a magnetometer
+    procedure on a board without one."""
+    hello = link.hello
+    if hello is None:
+        raise CalibrationRefused(f"the board on {link.settings.port} did not identify itself (no HELLO): "
+                                 "calibrating needs the EnergyBall firmware's raw samples (firmware/README.md)")
+    if procedure == "mag" and (hello.mag_whoami == 0 or BoardError.MAG_MISSING in hello.errors):
+        raise CalibrationRefused(f"the board on {link.settings.port} reports no magnetometer in its HELLO "
+                                 "(AK8963 missing): there is nothing to calibrate")
+    return hello, C.board_id_of(hello, virtual)
+
+
+@dataclass
+class Report:
+    """What a procedure's command prints: ``values`` as JSON, ``lines`` as text."""
+
+    values: dict = field(default_factory=dict)
+    lines: list[str] = field(default_factory=list)
+
+
+def calibrate(name: str, link: Link, term: Terminal, seconds: float | None = None,
+              maker: SimulatedMaker | None = None) -> Report:
+    """Run procedure ``name`` ("accel" or "mag") on the link's board, save its result, say what was done.
+
+    ``maker``: the simulated maker holding the virtual board (then the board's
+    file is the virtual one's, and the report adds the errors left against the
+    board's true errors). :class:`CalibrationRefused` when no calibration came
+    of it; nothing is saved then.
+    """
+    hello, board_id = board_identity(link, name, maker is not None)
+    path = C.calibration_path(board_id)
+    term.say(f"calibrating the {C.PROCEDURE_TITLES[name]} of board {board_id} (firmware {hello.firmware}) "
+             f"on {link.settings.port}; the result goes to {path}")
+    damaged = C.damage(board_id)
+    if damaged:
+        term.say(f"{damaged}; saving this calibration will replace it, keeping a copy as {path.name}.damaged")
+    limit = seconds or (ACCEL_SECONDS if name == "accel" else MAG_SECONDS)
+    if name == "accel":
+        accel = AccelProcedure()
+        a_steps: Steps[AccelStatus] = Steps(lambda s: s.done, live_accel, AccelNarrator())
+        a_status, interruptions = run_procedure(link, accel, a_steps, term, limit, maker)
+        fitted, record, values, lines = finish_accel(board_id, accel, a_status, limit)
+    else:
+        saved_cal, _ = C.load_or_default(board_id)  # its accelerometer calibration, if done, for the dip
+        mag = MagProcedure(accel=saved_cal if saved_cal.record("accel") else None)
+        m_steps: Steps[MagStatus] = Steps(lambda s: s.ready or bool(s.problem), live_mag, MagNarrator())
+        m_status, interruptions = run_procedure(link, mag, m_steps, term, limit, maker)
+        fitted, record, values, lines = finish_mag(board_id, mag, m_status, limit)
+    saved, copied = C.save_procedure(board_id, fitted, record)
+    lines.append(f"saved to {saved}" + (f" (the damaged file was kept as {copied})" if copied else ""))
+    values = {"procedure": name, "board_id": board_id, "path": str(saved),
+              "damaged_copy": str(copied) if copied else None, "done_at": record.done_at,
+              "interruptions": interruptions, **values}
+    if maker is not None:
+        errors = calibration_errors(fitted, maker.true_calibration())
+        values.update({k: errors[k] for k in TRUTH_ERRORS[name]})
+        lines.append("left against the simulated board's true errors: "
+                     + ", ".join(f"{k} {errors[k]:.3f}" for k in TRUTH_ERRORS[name]))
+    return Report(values, lines)
+
+
+def _numbers(v: Sequence[float] | np.ndarray, fmt: str) -> str:
+    return " ".join(fmt.format(float(x)) for x in v)
+
+
+def _rows(m: np.ndarray) -> str:
+    return " ".join(f"({_numbers(row, '{:.4f}')})" for row in m)
+
+
+# ----------------------------------------------------------------- calibrate show
+
+
+def show_board(cal: C.BoardCalibration) -> list[str]:
+    """``calibrate show``'s lines for one board: each procedure, when, its figures and values."""
+    lines = [f"board {cal.board_id}: {C.calibration_path(cal.board_id)}"]
+    default = C.BoardCalibration(cal.board_id)
+    for name, title in C.PROCEDURE_TITLES.items():
+        record = cal.record(name)
+        changed = any(not np.array_equal(getattr(cal, f), getattr(default, f)) for f in C.PROCEDURES[name])
+        if record is None and not changed:
+            lines.append(f"  {title:13s}  not calibrated (armtracker calibrate {name})")
+            continue
+        figures = ", ".join(FIGURES.get(k, k + " {:g}").format(v) for k, v in record.figures) if record else ""
+        lines.append(f"  {title:13s}  {record.when if record else 'date unknown'}"
+                     + (f"  {figures}" if figures else ""))
+        if name == "accel":
+            lines.append(f"  {'':13s}  offset ({_numbers(cal.acc_offset, '{:+.4f}')}) m/s^2, "
+                         f"scale ({_numbers(cal.acc_scale, '{:.5f}')})")
+        else:
+            lines.append(f"  {'':13s}  hard iron ({_numbers(cal.mag_hard_iron, '{:+.2f}')}) uT, "
+                         f"soft iron rows {_rows(cal.mag_soft_iron)}")
+    return lines
+
+
+def show(as_json: bool) -> tuple[str, list[str]]:
+    """What ``calibrate show`` prints on stdout, and the one-line problems of files it could not read."""
+    folder = C.boards_dir()
+    boards = C.saved_boards()
+    good = [b for b in boards if isinstance(b, C.BoardCalibration)]
+    bad = [str(b) for b in boards if isinstance(b, C.CalibrationFileError)]
+    if as_json:
+        return json.dumps({"folder": str(folder),
+                           "boards": [{**b.to_json(), "path": str(C.calibration_path(b.board_id))} for b in good],
+                           "damaged": bad}), bad
+    if not boards:
+        return (f"no board calibration saved yet in {folder}: connect the board and run "
+                "`armtracker calibrate accel`, then `armtracker calibrate mag`"), bad
+    return "\n".join(line for b in good for line in show_board(b)), bad
