@@ -24,17 +24,14 @@ from __future__ import annotations
 
 import math
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
 import numpy as np
 
 from tracker import protocol as P
-from tracker import quat as Q
-from tracker.accel_procedure import AccelProcedure
-from tracker.calibration import BoardCalibration, SixPoseResult
-from tracker.mag_procedure import MagProcedure, MagResult
-from tracker.maker_sim import SimulatedMaker, run_maker
+from tracker.calibration import BoardCalibration
+from tracker.maker_sim import SimulatedMaker, calibrate
 from tracker.sim import Simulator
 from tracker.sim_board import RATE_HZ, SimBoard
 
@@ -95,21 +92,7 @@ def maker_calibration(profile: PlayerProfile, seed: int) -> tuple[BoardCalibrati
     calibration and None, or what it has and why a procedure failed (a
     reported figure, never an exception).
     """
-    maker = SimulatedMaker(profile.sensor_errors(), seed)
-    accel = run_maker(AccelProcedure(), maker)
-    cal = BoardCalibration()
-    problems = []
-    if isinstance(accel.result, SixPoseResult) and not accel.error:
-        cal = replace(cal, acc_offset=accel.result.offset, acc_scale=accel.result.scale,
-                      acc_misalignment=accel.result.misalignment)
-    else:
-        problems.append(f"six-pose calibration failed: {accel.error}")
-    mag = run_maker(MagProcedure(accel=cal), maker)
-    if isinstance(mag.result, MagResult) and not mag.error:
-        fit = mag.result.fit
-        cal = replace(cal, mag_hard_iron=np.array(fit.offset), mag_soft_iron=np.array(fit.soft_iron))
-    else:
-        problems.append(f"magnetometer calibration failed: {mag.error}")
+    cal, problems = calibrate(SimulatedMaker(profile.sensor_errors(), seed))
     return cal, "; ".join(problems) or None
 
 

@@ -237,19 +237,19 @@ class AccelProcedure:
             lean = f" (it leans {tilt / DEG:.0f} deg from a face)" if tilt < 45.0 * DEG else ""
             text = f"put {asked} up, flat on the table{lean}"
         elif face in self._poses:
-            just = not self._left and face == captured[-1]
-            text = f"captured {face}: now put {asked} up" if just else \
-                f"{face} is already captured: put {asked} up"
-        elif held > 0.0:
+            if not self._left and face == captured[-1]:
+                text = f"captured {face}: now put {asked} up"
+            elif held >= self.params.moved_after_s:  # set down on it, not passing over it
+                text = f"{face} is already captured: put {asked} up"
+            else:
+                text = f"put {asked} up, flat on the table"
+        else:
             instead = "" if face == asked else f", in place of {asked}"
             text = f"hold still: {held:.1f} s of {hold:.1f} ({face} up{instead})"
-        else:
-            text = f"{face} up: hold it still"
-        if self._moved and face not in self._poses:
-            if held >= self.params.moved_after_s:
+            if self._moved and held >= self.params.moved_after_s:
                 self._moved = ""
-            else:
-                text = f"{self._moved}: hold it still ({text})"
+            elif self._moved:
+                text = f"{self._moved}: {text}"
         return AccelStatus(asked, face, held, captured, text, False)
 
     def result(self) -> SixPoseResult:

@@ -24,10 +24,21 @@ It refuses, each with one line:
   span beyond 2 x 90 uT is refused as soon as it happens; and an AK8963
   overflow (its HOFL flag, beyond +-4912 uT) is one;
 - a field that changes during the procedure: the readings of a field that
-  is the same in every orientation lie on one ellipsoid; a residual beyond
-  ``max_residual`` of the strength (:data:`tracker.magfit.MAX_RESIDUAL`, as
-  :func:`tracker.magfit.judge`) means the field changed (a magnet or steel
-  moved, or the board moved through a disturbed room).
+  is the same in every orientation lie on one ellipsoid, up to the
+  magnetometer's noise. The noise is measured in the same readings: the
+  second difference of consecutive readings, m_k+1 - 2 m_k + m_k-1, has
+  variance 6 sigma^2 per axis for white noise of variance sigma^2, while a
+  board turning at 90 deg/s changes it by 0.003 uT (omega^2 |h| dt^2 at 200
+  Hz). A kept reading, the mean of ``average`` raw ones, then lies about
+  sigma_r = sigma / sqrt(average) off the ellipsoid along its radius, and the
+  RMS over hundreds of readings is within a few percent of sigma_r. A fit
+  whose residual exceeds ``noise_factor`` sigma_r + ``residual_floor_ut``
+  (or ``max_residual`` of the strength, :data:`tracker.magfit.MAX_RESIDUAL`,
+  as :func:`tracker.magfit.judge`) means the field changed (a magnet or
+  steel moved, or the board moved through a disturbed room). Measured on
+  the simulated maker: a 20 uT field added for 6 s of the tumble leaves
+  1.1-1.3 uT of residual and 3-4 % of soft-iron error, and is refused; 10 uT
+  leaves 0.4 uT and 1 %.
 
 It reports the fit's residual, the field's strength and its dip, the angle
 of the calibrated field below the horizontal: sin(dip) = -h . a / (|h| |a|),
@@ -73,7 +84,9 @@ class MagProcedureParams:
     the noise down by sqrt(10), while a board turning at 90 deg/s moves 4.5
     deg in a group, whose mean lies 0.01 uT inside the sphere). ``max_residual``:
     the residual, as a share of the strength, beyond which the field changed
-    (:data:`tracker.magfit.MAX_RESIDUAL`). ``field_min_ut``/``field_max_ut``:
+    (:data:`tracker.magfit.MAX_RESIDUAL`); ``noise_factor`` and
+    ``residual_floor_ut``: the residual the measured noise explains (module
+    docstring), beyond which the field changed too. ``field_min_ut``/``field_max_ut``:
     the strengths the earth's field can show through the board's soft iron
     (module docstring). ``refit_every_s``: seconds between the live refits of
     the centre (and, once enough is covered, of the whole fit). ``store``: how
@@ -85,6 +98,8 @@ class MagProcedureParams:
     target_coverage: float = 0.9
     min_coverage: float = ELLIPSOID_COVERAGE
     max_residual: float = MAX_RESIDUAL
+    noise_factor: float = 1.5
+    residual_floor_ut: float = 0.3
     field_min_ut: float = FIELD_MIN_UT
     field_max_ut: float = FIELD_MAX_UT
     refit_every_s: float = 0.5
@@ -151,6 +166,35 @@ class _DipSums:
         return math.degrees(math.asin(max(-1.0, min(1.0, -up))))
 
 
+@dataclass
+class _Noise:
+    """The magnetometer's white noise from second differences of consecutive readings (module docstring)."""
+
+    CLIP_UT = 20.0  # a second difference beyond this (a jump) counts as this
+
+    previous: list[tuple[float, float, float]] = field(default_factory=list)  # the last two readings
+    sum_sq: float = 0.0
+    n: int = 0
+
+    def restart(self) -> None:
+        """The next reading does not follow the last (a gap in the samples)."""
+        self.previous = []
+
+    def add(self, m: tuple[float, float, float]) -> None:
+        if len(self.previous) == 2:
+            (a0, a1, a2), (b0, b1, b2) = self.previous
+            d = ((m[0] - 2.0 * b0 + a0) ** 2 + (m[1] - 2.0 * b1 + a1) ** 2 + (m[2] - 2.0 * b2 + a2) ** 2)
+            self.sum_sq += min(d, self.CLIP_UT * self.CLIP_UT)
+            self.n += 1
+            self.previous = [self.previous[1], m]
+        else:
+            self.previous.append(m)
+
+    def sigma_ut(self) -> float:
+        """The noise's standard deviation per axis, uT (0 before three readings)."""
+        return math.sqrt(self.sum_sq / (18.0 * self.n)) if self.n else 0.0
+
+
 class MagProcedure:
     """The magnetometer procedure, streaming (module docstring). Feed raw samples; read :attr:`status`.
 
@@ -170,6 +214,7 @@ class MagProcedure:
         self._low = [math.inf] * 3  # each axis's smallest and largest reading, uT
         self._high = [-math.inf] * 3
         self._group: list[float] = [0.0, 0.0, 0.0, 0.0]  # the readings being averaged: sums and count
+        self._noise = _Noise()
         self._centre: tuple[float, float, float] | None = None
         self._covered: set[int] = set()
         self._refit_t: float | None = None
@@ -192,6 +237,7 @@ class MagProcedure:
         """The link was lost (a pulled cable): the readings are kept and the procedure resumes."""
         self._refit_t = None
         self._group = [0.0, 0.0, 0.0, 0.0]
+        self._noise.restart()
         self._status = self._describe(f"the board was disconnected: the {self.readings} readings so far are "
                                       f"kept; turn it on through the directions not yet covered")
 
@@ -205,6 +251,7 @@ class MagProcedure:
             self._status = self._describe("no magnetometer reading: is the board's AK8963 connected?")
             return self._status
         self._field = math.sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
+        self._noise.add(m)
         self._average(m)
         c = self._accel.apply(sample).acc if self._accel is not None else sample.acc
         a = (float(c[0]), float(c[1]), float(c[2]))
@@ -281,10 +328,13 @@ class MagProcedure:
         if fit.field_ut > p.field_max_ut:
             return (f"a magnet or iron near the board: the field is {fit.field_ut:.0f} uT and {earth}; "
                     f"keep magnets and steel away and start again")
-        if fit.relative_residual > p.max_residual:
+        noise = self._noise.sigma_ut() / math.sqrt(p.average)
+        limit = min(p.max_residual * fit.field_ut, p.noise_factor * noise + p.residual_floor_ut)
+        if fit.residual_ut > limit:
             return (f"the field changed during the procedure: the readings leave a residual of "
-                    f"{fit.residual_ut:.1f} uT, {fit.relative_residual:.0%} of the {fit.field_ut:.0f} uT field "
-                    f"(at most {p.max_residual:.0%}); did a magnet or steel move near the board? start again")
+                    f"{fit.residual_ut:.1f} uT of the {fit.field_ut:.0f} uT field, where the magnetometer's noise "
+                    f"explains {noise:.1f} uT (at most {limit:.1f} uT); did a magnet or steel move near the board? "
+                    f"start again")
         if fit.field_ut < p.field_min_ut:
             return f"the field is only {fit.field_ut:.0f} uT and {earth}: is the magnetometer working?"
         return ""

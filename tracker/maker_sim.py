@@ -40,7 +40,11 @@ while: :class:`Magnet`).
 
 from __future__ import annotations
 
-import argparse
+if __name__ == "__main__":  # run as a program: a signal while it starts up ends it without a traceback
+    from . import signals as _startup
+
+    _startup.exit_quietly()
+
 import json
 import math
 import sys
@@ -75,6 +79,15 @@ NUDGE_DEG, NUDGE_S = 8.0, 0.4
 BLOCK_S = 0.3  # simulated at once: less than a reaction time, so a prompt never changes a block computed
 FACE_AXES = {"+x": (1.0, 0.0, 0.0), "-x": (-1.0, 0.0, 0.0), "+y": (0.0, 1.0, 0.0),
              "-y": (0.0, -1.0, 0.0), "+z": (0.0, 0.0, 1.0), "-z": (0.0, 0.0, -1.0)}
+
+
+def extreme_errors() -> SensorErrors:
+    """The catalogue's extremes (``game/profiles/worst_plausible.json``: 10 deg/s of gyroscope bias
+    warming by 4 deg/s, 200 uT of hard iron, 20 % of soft iron, 40 uT of room disturbance, twice
+    the data sheet's noise), with the accelerometer's +-3 % sensitivity tolerance (:func:`maker_errors`)."""
+    base = realistic_errors(gyro_bias_dps=10.0, gyro_warmup_dps=4.0, mag_hard_iron_ut=200.0,
+                            mag_soft_iron_pct=20.0, mag_disturbance_ut=40.0, noise_scale=2.0)
+    return replace(base, acc=replace(base.acc, scale_max=SCALE_TOLERANCE))
 
 
 def maker_errors(errors: SensorErrors | None = None) -> SensorErrors:
@@ -208,6 +221,7 @@ class SimulatedMaker:
         self._board_t = 0.0  # the board's latest time asked for
         self.now = 0.0  # the maker's time of the latest reading
         self._repeated = False
+        self._wait_until = -math.inf  # the maker does nothing new before this time
 
     # ------------------------------------------------------------------ the motion
 
@@ -283,18 +297,25 @@ class SimulatedMaker:
     def _where(self, t: float) -> Array:
         return self._root(np.array([t]))[0]
 
-    def _face_q(self, face: str) -> Array:
-        """The board lying with ``face`` up, a random heading and a small lean."""
-        up = Q.from_two_vectors(FACE_AXES[face], (0.0, 0.0, 1.0))
-        heading = Q.from_axis_angle((0.0, 0.0, 1.0), self._rng.uniform(0.0, 2.0 * np.pi))
+    def _face_q(self, face: str, t: float) -> Array:
+        """The board tipped over from where the plan has it at ``t`` onto ``face``: the least turn
+        that brings that axis up, then a new heading (within +-20 deg) and a small lean."""
+        q = self._where(t)
+        axis_now = Q.rotate(q, FACE_AXES[face])
+        tip = Q.from_two_vectors(axis_now, (0.0, 0.0, 1.0))
+        heading = Q.from_axis_angle((0.0, 0.0, 1.0), math.radians(self._rng.uniform(-20.0, 20.0)))
         azimuth = self._rng.uniform(0.0, 2.0 * np.pi)
         lean = Q.from_axis_angle((math.cos(azimuth), math.sin(azimuth), 0.0),
                                  math.radians(self._rng.uniform(0.0, LEAN_DEG)))
-        return Q.multiply(lean, Q.multiply(heading, up))
+        return Q.multiply(lean, Q.multiply(heading, Q.multiply(tip, q)))
 
-    def _move(self, face: str | None, q1: Array) -> None:
+    def _move(self, face: str | None) -> None:
+        """After a reaction time, turn the board onto ``face`` (None: lift it 60 deg off the face it is on)."""
         t0 = self.now + self._rng.uniform(*REACTION_S)
-        self._replan(_Move(t0, t0 + TURN_S, self._where(t0), q1, face))
+        q0 = self._where(t0)
+        q1 = Q.multiply(Q.from_axis_angle((1.0, 0.0, 0.0), math.radians(60.0)), q0) if face is None \
+            else self._face_q(face, t0)
+        self._replan(_Move(t0, t0 + TURN_S, q0, q1, face))
 
     def follow(self, status: AccelStatus | MagStatus) -> None:
         """Act on a procedure's prompt (module docstring); a prompt already being acted on changes nothing."""
@@ -310,19 +331,19 @@ class SimulatedMaker:
         if self._busy():
             return
         if self.repeat_face and not self._repeated and len(status.captured) == 1 \
-                and status.up == status.captured[0] and isinstance(current, _Move):
+                and status.up == status.captured[0]:
             self._repeated = True  # lift it, then lay it on the same face again
-            lifted = Q.multiply(Q.from_axis_angle((1.0, 0.0, 0.0), math.radians(60.0)), current.q1)
-            self._move(None, lifted)
+            self._move(None)
             back = self._plan[-1].t0 + TURN_S + 0.3
-            self._replan(_Move(back, back + TURN_S, lifted, self._face_q(status.up), status.up))
+            self._replan(_Move(back, back + TURN_S, self._where(back), self._face_q(status.up, back), status.up))
+            self._wait_until = back + TURN_S + 2.0  # and reads what the procedure says about it
         elif current.face != status.asked:
-            self._move(status.asked, self._face_q(status.asked))
+            self._move(status.asked)
 
     def _busy(self) -> bool:
         """Whether a planned move has not ended yet (the maker finishes what it is doing)."""
         current = self._plan[-1]
-        return isinstance(current, _Move) and current.t1 > self.now
+        return self.now < self._wait_until or isinstance(current, _Move) and current.t1 > self.now
 
     # ------------------------------------------------------------------ the truth
 
@@ -394,6 +415,7 @@ def run_maker(procedure: AccelProcedure | MagProcedure, maker: SimulatedMaker, l
         t = (k - k0) / maker.rate_hz
         if pull_cable is not None and maker.now >= pull_cable[0]:
             procedure.interrupted()
+            run.history.append((maker.now, procedure.status.message))
             maker.now += pull_cable[1]
             pull_cable, k0, t = None, k, 0.0
             seq = 0
@@ -419,3 +441,68 @@ def run_maker(procedure: AccelProcedure | MagProcedure, maker: SimulatedMaker, l
     if isinstance(run.result, SixPoseResult) and not run.result.ok:
         run.error = run.result.message
     return run
+
+
+def calibrate(maker: SimulatedMaker) -> tuple[BoardCalibration, list[str]]:
+    """Both procedures on ``maker``'s board, accelerometer first (its result serves the dip): the
+    calibration found (the identity where a procedure failed) and the failures' lines."""
+    accel = run_maker(AccelProcedure(), maker)
+    cal, problems = BoardCalibration(), []
+    if isinstance(accel.result, SixPoseResult) and not accel.error:
+        r = accel.result
+        cal = BoardCalibration(acc_offset=r.offset, acc_scale=r.scale, acc_misalignment=r.misalignment)
+    else:
+        problems.append(f"six-pose calibration failed: {accel.error}")
+    mag = run_maker(MagProcedure(accel=cal), maker)
+    if isinstance(mag.result, MagResult) and not mag.error:
+        fit = mag.result.fit
+        cal = replace(cal, mag_hard_iron=np.array(fit.offset), mag_soft_iron=np.array(fit.soft_iron))
+    else:
+        problems.append(f"magnetometer calibration failed: {mag.error}")
+    return cal, problems
+
+
+def recovered_errors(seeds: int = 4) -> dict:
+    """The errors the procedures leave on simulated boards, the worst over ``seeds`` seeds, for the
+    typical board (:func:`maker_errors`) and the catalogue's extremes (:func:`extreme_errors`)."""
+    report: dict = {"seeds": seeds}
+    for name, errors in (("typical", maker_errors()), ("extreme", extreme_errors())):
+        worst: dict[str, float] = {}
+        failures = []
+        for seed in range(seeds):
+            maker = SimulatedMaker(errors, seed)
+            cal, problems = calibrate(maker)
+            failures += [f"seed {seed}: {p}" for p in problems]
+            for key, value in calibration_errors(cal, maker.true_calibration()).items():
+                worst[key] = round(max(worst.get(key, 0.0), value), 3)
+        report[name] = {**worst, "failures": failures}
+    return report
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m tracker.maker_sim [--seeds N] [--json]``: the figures of :func:`recovered_errors`."""
+    from .options import Parser, Ranged
+    from . import signals
+
+    parser = Parser(prog="python -m tracker.maker_sim",
+                    description="The errors the guided calibrations leave on simulated boards (worst over seeds).")
+    parser.add_argument("--seeds", type=Ranged(int, 1, 100), default=4, help="boards per kind of board")
+    parser.add_argument("--json", action="store_true", help="print JSON")
+    args = parser.parse_args(argv)
+    with signals.interrupts(ignore_after=argv is None):
+        try:
+            report = recovered_errors(args.seeds)
+        except KeyboardInterrupt as e:
+            return signals.exit_status(e)
+    if args.json:
+        print(json.dumps(report, indent=2))
+    else:
+        for name in ("typical", "extreme"):
+            print(f"{name}: " + ", ".join(f"{k} {v}" for k, v in report[name].items() if k != "failures"))
+            for failure in report[name]["failures"]:
+                print(f"  {failure}")
+    return 1 if report["typical"]["failures"] or report["extreme"]["failures"] else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
