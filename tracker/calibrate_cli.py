@@ -31,19 +31,20 @@ import sys
 import threading
 import time
 from dataclasses import dataclass, field, replace
-from typing import IO, Callable, Generic, Iterator, Protocol, Sequence, TypeVar
+from typing import IO, TYPE_CHECKING, Callable, Generic, Iterator, Protocol, Sequence, TypeVar
 
 import numpy as np
 
 from . import calibration as C
 from .accel_procedure import FACES, AccelProcedure, AccelStatus
-from .board import VirtualBoard
 from .link import Link
 from .mag_procedure import MagProcedure, MagStatus
 from .magfit import MagFitError
-from .maker_sim import Magnet, SimulatedMaker, calibration_errors
 from .protocol import BoardError, Hello, RawSample
-from .sim import SCALE_TOLERANCE, realistic_errors
+
+if TYPE_CHECKING:  # the virtual board and the simulated maker are POSIX only (a pty): imported when used
+    from .board import VirtualBoard
+    from .maker_sim import SimulatedMaker
 
 POLL_S = 0.02  # how often the loop drains the link, feeds the procedure and redraws (50 Hz)
 LIVE_INTERVAL_S = 0.25  # the live line on a terminal; elsewhere (a log, a test) once a second
@@ -235,10 +236,8 @@ class AccelNarrator:
 
 
 def live_accel(st: AccelStatus) -> str:
-    marks = " ".join(f if f in st.captured else "  " for f in FACES)
+    marks = " ".join(f if f in st.captured else "--" for f in FACES)
     return f"[{marks}]  {st.message}"
-
-
 
 
 def finish_accel(board_id: str, procedure: AccelProcedure, status: AccelStatus,
@@ -331,6 +330,8 @@ class VirtualMaker:
     repeat_face: bool = False
 
     def maker(self) -> SimulatedMaker:
+        from .maker_sim import Magnet, SimulatedMaker
+        from .sim import SCALE_TOLERANCE, realistic_errors
         figures = {"mag_hard_iron_ut": self.hard_iron_ut, "mag_soft_iron_pct": self.soft_iron_pct,
                    "mag_disturbance_ut": self.room_ut}
         errors = realistic_errors(noise_scale=self.noise_scale, **{k: v for k, v in figures.items() if v is not None})
@@ -416,6 +417,7 @@ def calibrate(name: str, link: Link, term: Terminal, seconds: float | None = Non
               "damaged_copy": str(copied) if copied else None, "done_at": record.done_at,
               "interruptions": interruptions, **values}
     if maker is not None:
+        from .maker_sim import calibration_errors
         errors = calibration_errors(fitted, maker.true_calibration())
         values.update({k: errors[k] for k in TRUTH_ERRORS[name]})
         lines.append("left against the simulated board's true errors: "

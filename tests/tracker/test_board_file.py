@@ -8,7 +8,6 @@ import json
 import tempfile
 from dataclasses import replace
 from datetime import datetime
-from pathlib import Path
 
 import numpy as np
 import pytest

@@ -22,7 +22,6 @@ import numpy as np
 import pytest
 
 from tracker import calibration as C
-from tracker.protocol import RawSample
 
 from ..commands import ROOT, _default_sigint
 
