@@ -323,7 +323,10 @@ class SimulatedMaker:
         if isinstance(status, MagStatus):
             if not isinstance(current, _Tumble):
                 t0 = self.now + self._rng.uniform(*REACTION_S)
-                field = np.asarray(self._simulator.earth_field_ut) / np.linalg.norm(self._simulator.earth_field_ut)
+                field = np.asarray(self._simulator.earth_field_ut)  # and a magnet's, if one is near then
+                if self.magnet is not None:
+                    field = field + self.magnet.at(np.array([t0]))[0]
+                field = field / np.linalg.norm(field)
                 self._replan(_Tumble(t0, self._where(t0), TUMBLE_SPIN_S * self._rng.uniform(0.8, 1.2), field))
             return
         if status.done or status.asked is None:

@@ -1,0 +1,144 @@
+"""The guided six-pose procedure: on the simulated board with a simulated maker, and on hand-made streams."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tracker.accel_procedure import FACES, AccelProcedure, AccelProcedureParams
+from tracker.board import acc_lsb, counts, gyr_lsb
+from tracker.calibration import BoardCalibration
+from tracker.maker_sim import SimulatedMaker, calibration_errors, extreme_errors, maker_errors, run_maker
+from tracker.protocol import RawSample
+from tracker.sim import mpu9250
+
+RATE = 200.0
+
+
+def _fitted(result) -> BoardCalibration:
+    return BoardCalibration(acc_offset=result.offset, acc_scale=result.scale, acc_misalignment=result.misalignment)
+
+
+@pytest.mark.parametrize("errors, seed", [(maker_errors(), s) for s in (0, 1, 2)]
+                         + [(extreme_errors(), s) for s in (0, 5)])
+def test_the_procedure_recovers_the_boards_offset_and_scale(errors, seed):
+    maker = SimulatedMaker(errors, seed=seed)
+    run = run_maker(AccelProcedure(), maker)
+    assert run.error == "" and run.result is not None and run.result.ok
+    err = calibration_errors(_fitted(run.result), maker.true_calibration())
+    assert err["acc_offset_error_mg"] < 5.0  # of offsets up to 60 mg
+    assert err["acc_scale_error_pct"] < 0.3  # of scales off by up to 3 %
+    assert run.history[-1][1] == "all six faces captured"
+    captured = [m for _, m in run.history if m.startswith("captured")]
+    assert len(captured) == 5 and captured[0] == f"captured {FACES[0]}: now put {FACES[1]} up"
+
+
+@settings(derandomize=True, max_examples=6, deadline=None)
+@given(offset_mg=st.floats(0.0, 60.0), scale_pct=st.floats(0.0, 3.0), seed=st.integers(0, 1000))
+def test_any_offset_and_scale_within_the_data_sheet_is_recovered(offset_mg, scale_pct, seed):
+    base = mpu9250()
+    errors = replace(base, acc=replace(base.acc, offset_max=offset_mg * 9.80665e-3, scale_max=scale_pct / 100))
+    maker = SimulatedMaker(errors, seed=seed)
+    run = run_maker(AccelProcedure(), maker)
+    assert run.error == ""
+    err = calibration_errors(_fitted(run.result), maker.true_calibration())
+    assert err["acc_offset_error_mg"] < 5.0 and err["acc_scale_error_pct"] < 0.3
+
+
+def test_a_board_moved_during_a_pose_restarts_its_hold_with_a_message():
+    maker = SimulatedMaker(seed=1, nudges=(1.5,))  # 1.5 s into the first hold
+    run = run_maker(AccelProcedure(), maker)
+    moved = [(t, m) for t, m in run.history if m.startswith("the board moved during the pose")]
+    assert moved and moved[0][0] == pytest.approx(1.5, abs=0.1)
+    captured = next(t for t, m in run.history if m.startswith(f"captured {FACES[0]}"))
+    assert captured > 1.5 + 2.0  # a whole new hold after the nudge
+    assert run.error == "" and run.result.ok
+
+
+def test_the_same_face_twice_is_refused_with_the_face_to_put_up():
+    maker = SimulatedMaker(seed=1, repeat_face=True)  # lays the first face down again
+    run = run_maker(AccelProcedure(), maker)
+    messages = [m for _, m in run.history]
+    assert f"{FACES[0]} is already captured: put {FACES[1]} up" in messages
+    assert run.result.ok and messages[-1] == "all six faces captured"
+    assert [m for m in messages if m.startswith("captured")][0].startswith(f"captured {FACES[0]}")
+
+
+def test_a_pulled_cable_forgets_the_hold_keeps_the_poses_and_the_procedure_resumes():
+    maker = SimulatedMaker(seed=1)
+    run = run_maker(AccelProcedure(), maker, pull_cable=(9.0, 3.0))
+    pulled = [m for _, m in run.history if "disconnected" in m]
+    assert pulled == ["the board was disconnected: the pose being held is forgotten, 2 of 6 faces kept; "
+                      "put +x up"]
+    assert run.error == "" and run.result.ok
+    err = calibration_errors(_fitted(run.result), maker.true_calibration())
+    assert err["acc_offset_error_mg"] < 5.0 and err["acc_scale_error_pct"] < 0.3
+
+
+def test_the_result_is_refused_before_all_six_faces():
+    procedure = AccelProcedure()
+    with pytest.raises(ValueError, match=r"not all six faces captured \(\+z, -z, \+x, -x, \+y, -y missing\)"):
+        procedure.result()
+
+
+# ------------------------------------------------------------ hand-made streams
+
+
+def _sample(t: float, acc, gyr=(0.0, 0.0, 0.0)) -> RawSample:
+    a = tuple(counts(acc, acc_lsb(16)).tolist())
+    g = tuple(counts(gyr, gyr_lsb(2000)).tolist())
+    return RawSample(t, round(t * 1e6), 0, a, g, (0, 0, 0), 0)
+
+
+def _lying(face_acc, start: float, seconds: float, gyr=(0.0, 0.0, 0.0)):
+    n = round(seconds * RATE)
+    return [_sample(start + k / RATE, face_acc, gyr) for k in range(n)]
+
+
+def test_a_face_is_captured_after_hold_s_still_and_recognised_by_gravity():
+    procedure = AccelProcedure(AccelProcedureParams(hold_s=1.0))
+    statuses = [procedure.feed(s) for s in _lying((0.3, -0.2, -9.8), 0.0, 2.0)]
+    assert statuses[10].up == "-z" and statuses[10].asked == "+z"
+    assert "in place of +z" in statuses[100].message
+    first = next(i for i, s in enumerate(statuses) if s.captured)
+    assert statuses[first].captured == ("-z",)
+    assert statuses[first].message == "captured -z: now put +z up"
+    assert 1.0 <= first / RATE <= 1.6  # the hold, and the low-pass settling after the first sample
+
+
+def test_a_steady_gyroscope_bias_of_30_deg_per_s_is_still():
+    """An uncalibrated gyroscope may read tens of deg/s lying still: stillness is judged by deviations."""
+    procedure = AccelProcedure(AccelProcedureParams(hold_s=1.0))
+    bias = (math.radians(30.0), math.radians(-20.0), 0.0)
+    statuses = [procedure.feed(s) for s in _lying((0.0, 9.81, 0.0), 0.0, 2.0, bias)]
+    assert statuses[-1].captured == ("+y",)
+
+
+def test_a_board_turning_over_is_not_still_and_is_not_captured():
+    procedure = AccelProcedure(AccelProcedureParams(hold_s=1.0))
+    rate = math.radians(15.0)  # tipping about x at 15 deg/s for 2.5 s: from +z up to 37 deg
+    samples = [_sample(k / RATE, (0.0, 9.81 * math.sin(rate * k / RATE), 9.81 * math.cos(rate * k / RATE)),
+                       (rate, 0.0, 0.0)) for k in range(round(2.5 * RATE))]
+    statuses = [procedure.feed(s) for s in samples]
+    assert not any(s.captured for s in statuses)
+    assert statuses[round(0.5 * RATE)].up == "+z" and statuses[-1].up is None  # beyond 20 deg
+
+
+def test_a_leaning_board_has_no_face_up_and_is_told_so():
+    procedure = AccelProcedure()
+    lean = math.radians(30.0)
+    status = [procedure.feed(s) for s in _lying((0.0, 9.81 * math.sin(lean), 9.81 * math.cos(lean)), 0.0, 0.5)][-1]
+    assert status.up is None and status.message == "put +z up, flat on the table (it leans 30 deg from a face)"
+
+
+def test_a_gap_in_the_samples_restarts_the_hold():
+    procedure = AccelProcedure(AccelProcedureParams(hold_s=1.0))
+    for s in _lying((0.0, 0.0, 9.81), 0.0, 0.9):
+        procedure.feed(s)
+    after = [procedure.feed(s) for s in _lying((0.0, 0.0, 9.81), 1.5, 0.5)]  # 0.6 s lost on the link
+    assert not any(s.captured for s in after)
