@@ -254,9 +254,10 @@ class SimulatedMaker:
     def _sample(self, t: float) -> tuple[SensorReading, Counts]:
         """The reading at the maker's time ``t`` and its counts as the board quantises them."""
         b, i = divmod(round(t * self.rate_hz), self._block_n)
-        if self._cache.index != b:
-            self._cache = self._block(b)
-        return self._cache.readings[i], self._cache.counts[i]
+        cache = self._cache  # once: follow() in another thread may drop it meanwhile
+        if cache.index != b:
+            cache = self._cache = self._block(b)
+        return cache.readings[i], cache.counts[i]
 
     def _block(self, b: int) -> _Block:
         """Block ``b`` of samples simulated, as readings and as the board's counts
