@@ -640,7 +640,8 @@ class SixPoseResult:
 
     The calibrated reading is ``misalignment @ (scale * (acc - offset))``; ``offset`` in
     m/s^2, ``scale`` unitless, ``misalignment`` 3x3 with unit diagonal (identity unless
-    solved); ``residual`` is the RMS of |calibrated pose| - g, m/s^2. When ``ok`` is
+    solved); ``residual`` is the RMS of |calibrated sample| - g over every sample of the
+    poses, m/s^2 (the accelerometer's noise when the model fits and the poses were still). When ``ok`` is
     false the values are the identity calibration.
     """
 
@@ -791,10 +792,14 @@ def six_pose_calibration(poses: Sequence[Pose], extra: Sequence[Pose] = (),
         return _failed("the extra poses do not pin down the misalignment; "
                        "tilt the board about different axes for them")
     scale = np.diag(A).copy()
+    # Six poses fix six unknowns exactly, so the residual is judged on every sample the
+    # poses held: the sensor's noise when the model fits and each pose was still.
+    samples = np.vstack([pose.acc for pose in [*poses, *extra]])
+    r = np.linalg.norm((samples - b) @ A.T, axis=1) - p.gravity
     residual = float(np.sqrt(np.mean(r ** 2)))
     return SixPoseResult(True, f"accelerometer offset ({', '.join(f'{x:+.3f}' for x in b)}) m/s^2, "
                          f"scale ({', '.join(f'{x:.4f}' for x in scale)}), residual "
-                         f"{residual:.3f} m/s^2 over {len(a)} poses",
+                         f"{residual:.3f} m/s^2 over the {len(samples)} samples of {len(a)} poses",
                          b, scale, A / scale[None, :], residual)
 
 
