@@ -201,10 +201,12 @@ def cmd_gestures_eval(args: argparse.Namespace) -> int:
     if args.envelope and getattr(args, "profile", None):
         raise UsageError("--envelope runs every catalogue player; --profile runs one: give one of them")
     if args.envelope:
-        report = evaluate_envelope(catalogue(), args.trials, args.seed, args.gestures, progress)
+        report = evaluate_envelope(catalogue(), args.trials, args.seed, args.gestures, progress,
+                                   magnetometer=args.dof == 9)
         print(json.dumps(report) if args.json else envelope_table(report["players"]))
         return 0
-    report = evaluate(_profile(args.profile), args.trials, args.seed, args.gestures, progress)
+    report = evaluate(_profile(args.profile), args.trials, args.seed, args.gestures, progress,
+                      magnetometer=args.dof == 9)
     if args.json:
         print(json.dumps(report))
     else:
@@ -251,6 +253,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the simulated player (README lists the keys)")
     p.add_argument("--envelope", action="store_true",
                    help="run every player of the catalogue (game/profiles), one row each")
+    p.add_argument("--dof", type=int, choices=(6, 9), default=9,
+                   help="9: fuse the magnetometer, as the game does (9); 6: without it")
     p.add_argument("--json", action="store_true", default=argparse.SUPPRESS)
     p.set_defaults(func=cmd_gestures_eval, options=("profile", "json"))
 

@@ -101,8 +101,8 @@ def _within(t: float, interval: tuple[float, float], last_s: float | None = None
     return (t1 - last_s if last_s else t0) <= t < t1
 
 
-def run_trial(profile: PlayerProfile, seed: int, gestures: int = 10) -> TrialResult:
-    """One scripted session through the whole pipeline.
+def run_trial(profile: PlayerProfile, seed: int, gestures: int = 10, magnetometer: bool = True) -> TrialResult:
+    """One scripted session through the whole pipeline (``magnetometer`` False: 6D fusion).
 
     The calibrations are tried once, as a player on the first evening does:
     a failure is recorded (``calibration_ok`` false, the reason in
@@ -112,7 +112,7 @@ def run_trial(profile: PlayerProfile, seed: int, gestures: int = 10) -> TrialRes
     samples = board_stream(script, profile, seed)
     down, forward = script.calibration
     board, maker_problem = maker_calibration(profile, seed)
-    tracking = Tracking(board=board)
+    tracking = Tracking(use_magnetometer=magnetometer, board=board)
     avatar = Avatar(BodySettings(upper_arm_m=profile.upper_arm_m, forearm_m=profile.forearm_m))
     machine = GestureMachine()
     result = TrialResult(true_launches=len(script.launches))
@@ -172,14 +172,15 @@ def score_launches(truth: Sequence[TrueLaunch], idle_intervals: Sequence[tuple[f
     return unmatched
 
 
-def _run(args: tuple[PlayerProfile, int, int]) -> TrialResult:
+def _run(args: tuple[PlayerProfile, int, int, bool]) -> TrialResult:
     return run_trial(*args)
 
 
 def _trials(players: dict[str, PlayerProfile], trials: int, seed: int, gestures: int,
-            progress: Callable[[str], None] | None, workers: int) -> dict[str, list[TrialResult]]:
+            progress: Callable[[str], None] | None, workers: int,
+            magnetometer: bool) -> dict[str, list[TrialResult]]:
     """Every player's trials (seeds seed, seed + 1, ...), spread over ``workers`` processes."""
-    jobs = [(name, (profile, seed + k, gestures)) for name, profile in players.items() for k in range(trials)]
+    jobs = [(name, (profile, seed + k, gestures, magnetometer)) for name, profile in players.items() for k in range(trials)]
     results: dict[str, list[TrialResult]] = {name: [] for name in players}
     with ProcessPoolExecutor(max_workers=max(1, workers)) as pool:
         for (name, _), r in zip(jobs, pool.map(_run, [job for _, job in jobs])):
@@ -192,15 +193,18 @@ def _trials(players: dict[str, PlayerProfile], trials: int, seed: int, gestures:
 
 
 def evaluate(profile: PlayerProfile, trials: int, seed: int, gestures: int = 10,
-             progress: Callable[[str], None] | None = None, workers: int = 2) -> dict:
+             progress: Callable[[str], None] | None = None, workers: int = 2,
+             magnetometer: bool = True) -> dict:
     """Run one player's trials (in parallel) and report the figures the README quotes."""
-    return summarise(_trials({"player": profile}, trials, seed, gestures, progress, workers)["player"])
+    return summarise(_trials({"player": profile}, trials, seed, gestures, progress, workers,
+                             magnetometer)["player"])
 
 
 def evaluate_envelope(players: dict[str, PlayerProfile], trials: int, seed: int, gestures: int = 10,
-                      progress: Callable[[str], None] | None = None, workers: int = 2) -> dict:
+                      progress: Callable[[str], None] | None = None, workers: int = 2,
+                      magnetometer: bool = True) -> dict:
     """Every player's report (the same seeds for each), by name: the envelope of the catalogue."""
-    results = _trials(players, trials, seed, gestures, progress, workers)
+    results = _trials(players, trials, seed, gestures, progress, workers, magnetometer)
     return {"players": {name: summarise(rs) for name, rs in results.items()}}
 
 

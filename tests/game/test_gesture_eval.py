@@ -144,3 +144,12 @@ def test_the_simulated_maker_recovers_the_boards_own_errors(name):
     g = 9.80665
     acc_offset = truth.offset["acc"][0]
     assert np.abs(cal.acc_offset - acc_offset).max() < 0.005 * g  # 5 mg, of up to 60 mg
+
+
+def test_without_the_magnetometer_the_heading_drifts_and_aim_suffers_late():
+    """6D fusion has no heading reference: the gyro's bias about the vertical, never fully
+    learned while the board warms, turns the aim; 9D holds it (same player, same seed)."""
+    nine = run_trial(PlayerProfile(), 0, gestures=20)
+    six = run_trial(PlayerProfile(), 0, gestures=20, magnetometer=False)
+    assert (nine.matched, six.matched) == (nine.true_launches, six.true_launches)
+    assert np.median(six.late_aim_errors_deg) > 3 * np.median(nine.late_aim_errors_deg)
