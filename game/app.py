@@ -1,7 +1,8 @@
 """The game's screens and main loop (pygame).
 
 Screens: title menu, guided calibration, play, pause, game over with high
-scores, settings. Each is a small class with ``handle(event)``,
+scores, settings, and the board setup (the maker's accelerometer and
+magnetometer calibrations, :mod:`game.board_setup`). Each is a small class with ``handle(event)``,
 ``update(dt)`` and ``draw(surface)``; they return the next screen (or None to
 stay). :class:`App` owns the window and everything the screens share, and
 :meth:`App.frame` advances one frame from a list of events, so tests drive
@@ -11,19 +12,25 @@ the real app with injected events under the dummy video driver.
 from __future__ import annotations
 
 import gc
+import math
 import sys
 from pathlib import Path
 from dataclasses import dataclass, field, replace
 from typing import Callable, Protocol
 
+import numpy as np
 import pygame
 
+from tracker import protocol as P
+from tracker.calibration import BoardCalibration, board_id_of, load_for_hello
 from tracker.link import LinkSettings, find_boards
 
 from .arena import Arena, ArenaSettings
 from .arena_model import Controls
 from .audio import Audio
 from .avatar import Avatar, BodySettings, Wearing
+from .board_setup import (ACCEL, ACCEL_DONE, FAILED, MAG, MAG_DONE, BoardSetup, Follower, MakerInput,
+                          calibration_notice, fresh_samples)
 from .controls import KeyboardMouse, SampleInput, TrackerInput
 from .gestures import GestureEvent, GestureMachine, GestureSettings
 from .pose import ArmPose
@@ -38,6 +45,7 @@ GET_READY_S = 2.0
 BOARD_SCAN_S = 2.0
 NOTICE_LINES = 4  # the menu shows the latest notices (start-up ones are also printed on stderr)
 WHITE, RED, GREEN, YELLOW = (240, 240, 240), (230, 70, 60), (90, 220, 120), (250, 210, 80)
+ACCENT_BLUE = (90, 170, 255)
 
 
 class Screen(Protocol):
@@ -73,6 +81,9 @@ class Game:
     walker: Callable[[], Controls] | None = None  # who walks the player (None: the keyboard)
     on_launch: Callable[[GestureEvent], None] | None = None  # told of every launch (headless matches)
     arena_settings: ArenaSettings | None = None  # the rounds' arena (None: the defaults)
+    board_id: str | None = None  # the connected board's (from its HELLO), once its calibration is loaded
+    board_uncalibrated: bool = False  # that board has no saved calibration: the menu offers the setup
+    told_uncalibrated: set[str] = field(default_factory=set)  # boards the player was told so (once each)
 
     # -------------------------------------------------------- input
 
@@ -95,7 +106,7 @@ class Game:
             from tracker.board import VirtualBoard
 
             from .virtual_player import VirtualPlayer
-            self.virtual_board = VirtualBoard(VirtualPlayer()).start()
+            self.virtual_board = VirtualBoard(VirtualPlayer(seed=self.seed)).start()
             port = self.virtual_board.port
         self.use_source(TrackerInput(LinkSettings(port)))
         # The virtual player wears the board as designed and does not follow prompts: it
@@ -106,6 +117,7 @@ class Game:
         """Take arm poses from ``source`` (a board, or the headless match's wire); calibrate anew."""
         self.tracker = source
         self.calibrated = False
+        self.board_id = None  # its calibration is loaded once it says who it is
         self.avatar.wearing = Wearing()
 
     def use_keyboard(self) -> None:
@@ -113,7 +125,44 @@ class Game:
         self.avatar.wearing = Wearing()
         self.calibrated = True  # keyboard poses are made for the ideal wearing
 
+    def hello(self) -> P.Hello | None:
+        """The connected board's HELLO (None: no board, not connected yet, or one that sent none)."""
+        if isinstance(self.tracker, MakerInput):
+            return self.tracker.hello
+        return self.tracker.link.hello if isinstance(self.tracker, TrackerInput) and self.tracker.connected else None
+
+    def boards_folder(self) -> Path | None:
+        """Where board calibrations live: beside the settings when the app was given a folder, else
+        :func:`tracker.calibration.boards_dir`."""
+        return self.config_dir / "boards" if self.config_dir is not None else None
+
+    def load_board_calibration(self) -> None:
+        """Once a board has said who it is: load its saved calibration and apply it; a board with none
+        is said so once (and the menu offers the setup), and plays without."""
+        hello = self.hello()
+        if hello is None or board_id_of(hello) == self.board_id:
+            return
+        calibration, loaded = load_for_hello(hello, self.boards_folder())
+        self.board_id = board_id_of(hello)
+        self.apply_board_calibration(calibration)
+        self.board_uncalibrated = not calibration.procedures
+        notice = calibration_notice(calibration, loaded)
+        if self.board_uncalibrated and self.board_id in self.told_uncalibrated:
+            return
+        if self.board_uncalibrated:
+            self.told_uncalibrated.add(self.board_id)
+        self.notices.append(notice)
+        print(f"energyball: {notice}", file=sys.stderr)
+
+    def apply_board_calibration(self, calibration: BoardCalibration) -> None:
+        """Correct the board's samples with ``calibration`` from now on (the filter starts afresh)."""
+        if self.tracker:
+            self.tracker.tracking.board = calibration
+            self.tracker.tracking.reset()
+        self.board_uncalibrated = not calibration.procedures
+
     def close_board(self) -> None:
+        self.board_id = None
         if self.tracker:
             self.tracker.close()
             self.tracker = None
@@ -167,7 +216,7 @@ def menu_step(key: int) -> int:
 @dataclass
 class Menu:
     game: Game
-    items: tuple[str, ...] = ("Play", "Calibrate", "Settings", "Quit")
+    items: tuple[str, ...] = ("Play", "Calibrate", "Settings", "Board setup", "Quit")
     selected: int = 0
 
     def handle(self, event: pygame.event.Event) -> Screen | None:
@@ -192,6 +241,8 @@ class Menu:
             return Calibration(self.game, then_play=False)
         if item == "Settings":
             return Settings(self.game)
+        if item == "Board setup":
+            return BoardSetupScreen(self.game)
         return Quit()
 
     def update(self, dt: float) -> Screen | None:
@@ -201,7 +252,9 @@ class Menu:
         r = self.game.renderer
         r.draw_world(surface, self.game.arena, self.game.avatar, 0.0)
         r.draw_title(surface, "ENERGYBALL", "raise your arm, flex, snap it straight")
-        r.draw_menu(surface, list(self.items), self.selected, surface.get_height() // 2)
+        labels = [f"{item}  (not done for this board)" if item == "Board setup" and self.game.board_uncalibrated
+                  else item for item in self.items]
+        r.draw_menu(surface, labels, self.selected, surface.get_height() // 2 - 40)
         lines = [f"input: {self.game.hud()['input']}", *self.game.notices[-NOTICE_LINES:]]
         w, h = surface.get_size()
         height = 20 + 30 * len(lines)
@@ -554,6 +607,177 @@ class Settings:
         r.draw_menu(surface, labels, self.selected, y0)
 
 
+SETUP_STEPS = ("accelerometer", "magnetometer")
+
+
+@dataclass
+class BoardSetupScreen:
+    """"Board setup": the maker's two calibrations with pictures (:mod:`game.board_setup` holds the logic).
+
+    The board's raw samples come from the game's input (its ``recent``); with
+    ``--virtual`` a simulated maker takes the virtual board from the player while
+    the screen is up, follows the prompts, and hands it back on leaving.
+    """
+
+    game: Game
+    setup: BoardSetup | None = None  # None until a board has said who it is
+    clock: float = 0.0
+    last: P.RawSample | None = None  # the newest sample already fed
+    lent: object = None  # the virtual board's player while the simulated maker holds the board
+
+    def handle(self, event: pygame.event.Event) -> Screen | None:
+        if event.type != pygame.KEYDOWN:
+            return None
+        if event.key == pygame.K_ESCAPE:
+            return self.leave()
+        setup = self.setup
+        if setup is None:
+            return None
+        if event.key == pygame.K_r:
+            setup.redo()
+        elif event.key == pygame.K_m and setup.phase == ACCEL:
+            setup.start(MAG)
+        elif event.key in (pygame.K_RETURN, pygame.K_SPACE) and setup.next():
+            self.game.audio.play("click")
+            return self.leave()
+        return None
+
+    def leave(self) -> Screen:
+        """Back to the menu; the virtual board goes back to its player."""
+        board = self.game.virtual_board
+        if self.lent is not None and board is not None:
+            board.motion = self.lent
+        self.lent = None
+        return Menu(self.game)
+
+    def update(self, dt: float) -> Screen | None:
+        game = self.game
+        self.clock += dt
+        game.pose(dt)  # reads the link: new samples land in the input's recent ones
+        if self.setup is None:
+            self.setup = self.begin()
+            return None
+        if game.link_lost():
+            self.setup.interrupted()
+            return None
+        if game.tracker is not None:
+            samples = fresh_samples(game.tracker.recent, self.last)
+            if samples:
+                self.last = samples[-1]
+            before = self.setup.phase
+            self.setup.feed(samples)
+            if self.setup.phase != before and self.setup.phase in (ACCEL_DONE, MAG_DONE, FAILED):
+                game.audio.play("miss" if self.setup.phase == FAILED else "wave")
+        return None
+
+    def begin(self) -> BoardSetup | None:
+        """The setup for the connected board, once it has said who it is (a simulated maker with --virtual)."""
+        game = self.game
+        hello = game.hello()
+        if hello is None or game.tracker is None:
+            return None
+        # What came before (read by this frame's poll) is not the maker's: the procedures start after it.
+        self.last = game.tracker.recent[-1] if game.tracker.recent else None
+        maker: Follower | None = None
+        if isinstance(game.tracker, MakerInput):
+            maker = game.tracker.maker
+        elif game.virtual_board is not None:
+            maker = self.lend_virtual_board()
+        return BoardSetup(board_id_of(hello), game.tracker.tracking.board, game.boards_folder(), maker,
+                          game.apply_board_calibration)
+
+    def lend_virtual_board(self) -> Follower:
+        """Hand the virtual board to a simulated maker until the screen is left: the same board (the
+        virtual player's errors, drawn from the same seed) lying on a table."""
+        from tracker.maker_sim import SimulatedMaker
+
+        from .virtual_player import VirtualPlayer
+        board = self.game.virtual_board
+        self.lent = board.motion
+        errors = self.lent.script.profile.sensor_errors() if isinstance(self.lent, VirtualPlayer) else None
+        maker = SimulatedMaker(errors, seed=self.game.seed)
+        board.motion = maker
+        return maker
+
+    def draw(self, surface: pygame.Surface) -> None:
+        game = self.game
+        r = game.renderer
+        r.draw_backdrop(surface)
+        w, h = surface.get_size()
+        setup = self.setup
+        phase = setup.phase if setup else ACCEL
+        mag = phase in (MAG, MAG_DONE) or (phase == FAILED and setup is not None and setup.failed_phase == MAG)
+        title = "BOARD SETUP" + (f"  -  board {setup.board_id}" if setup else "")
+        r.draw_setup_header(surface, title, SETUP_STEPS, 1 if mag else 0)
+        top, gap = int(h * 0.11), 20
+        pictures = pygame.Rect(gap, top, w - 2 * gap, int(h * 0.56))
+        text = pygame.Rect(gap, pictures.bottom + gap, w - 2 * gap, h - pictures.bottom - 2 * gap)
+        if setup is None:
+            r.draw_setup_text(surface, text, self.waiting(), [], "Esc: back", warn=game.tracker is None)
+            return
+        third = (pictures.width - 2 * gap) // 3
+        now = pygame.Rect(pictures.left, pictures.top, third, pictures.height)
+        r.draw_board(surface, now, setup.gravity, "the board now", None, () if mag else setup.accel_status.captured,
+                     0.25 * math.sin(0.5 * self.clock))
+        rest = pygame.Rect(now.right + gap, pictures.top, pictures.right - now.right - gap, pictures.height)
+        if mag:
+            self.draw_mag(surface, rest, setup)
+        else:
+            self.draw_accel(surface, rest, setup)
+        lines = [*setup.figures, setup.saved, setup.notice]
+        warn = phase == FAILED or setup.disconnected or bool(phase == MAG and setup.mag_status.problem)
+        r.draw_setup_text(surface, text, setup.message(), [line for line in lines if line], setup.keys(), warn)
+
+    def draw_accel(self, surface: pygame.Surface, rect: pygame.Rect, setup: BoardSetup) -> None:
+        """The face to put up next (on a turning board), the six faces, the stillness."""
+        r = self.game.renderer
+        status = setup.accel_status
+        half = (rect.width - 20) // 2
+        target = pygame.Rect(rect.left, rect.top, half, rect.height)
+        asked = status.asked
+        title = f"next: put {asked} up" if asked else "all six faces captured"
+        up = np.zeros(3)
+        if asked:
+            up["xyz".index(asked[1])] = 1.0 if asked[0] == "+" else -1.0
+        else:
+            up[2] = 1.0
+        r.draw_board(surface, target, up, title, asked, status.captured, 0.35 * math.sin(0.7 * self.clock))
+        side = pygame.Rect(target.right + 20, rect.top, rect.right - target.right - 20, rect.height)
+        surface.blit(r.sprites.panel(side.width, side.height), side)
+        r.draw_face_chips(surface, pygame.Rect(side.left + 12, side.top + 20, side.width - 24, 48), asked,
+                          status.captured, status.up, self.clock)
+        hold = setup.accel.params.hold_s
+        r.draw_meter(surface, pygame.Rect(side.left + 16, side.top + 100, side.width - 32, 48),
+                     f"still {status.still_s:.1f} s of {hold:.1f}" + (f" on {status.up}" if status.up else ""),
+                     status.still_s / hold, GREEN)
+        r.draw_meter(surface, pygame.Rect(side.left + 16, side.top + 180, side.width - 32, 48),
+                     f"faces captured: {len(status.captured)} of 6", len(status.captured) / 6, YELLOW)
+
+    def draw_mag(self, surface: pygame.Surface, rect: pygame.Rect, setup: BoardSetup) -> None:
+        """The sphere of directions filling in, the coverage against what is needed, the field now."""
+        r = self.game.renderer
+        status = setup.mag_status
+        meter_h = 64
+        sphere = pygame.Rect(rect.left, rect.top, rect.width, rect.height - meter_h - 12)
+        r.draw_direction_sphere(surface, sphere, setup.directions(), status.covered)
+        need = setup.mag.params.target_coverage
+        meter = pygame.Rect(rect.left, sphere.bottom + 12, rect.width, meter_h)
+        surface.blit(r.sprites.panel(meter.width, meter.height), meter)
+        r.draw_meter(surface, meter.inflate(-32, -16),
+                     f"directions covered: {100 * status.coverage:.0f} % of the {100 * need:.0f} % needed"
+                     f"   -   field now {status.field_ut:.0f} uT", status.coverage / need,
+                     GREEN if status.ready else ACCENT_BLUE)
+
+    def waiting(self) -> str:
+        """What the screen says before a board has identified itself."""
+        game = self.game
+        if game.tracker is None:
+            return "No board connected: plug one in (the menu offers it), or start the game with --virtual"
+        if game.tracker.connected and game.hello() is None:
+            return "The board did not identify itself (not the EnergyBall firmware?): it cannot be set up here"
+        return f"Waiting for the board: {game.tracker.status}"
+
+
 class Quit:
     """The screen that ends the loop."""
 
@@ -653,6 +877,7 @@ class App:
         nxt = self.screen.update(dt)
         if nxt is not None:
             self.screen = nxt
+        game.load_board_calibration()
         if game.tracker and game.tracker.error:  # the board could not be opened: say so, play on
             game.notices.append(f"{game.tracker.error}; playing on keyboard and mouse")
             game.use_keyboard()

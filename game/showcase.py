@@ -22,11 +22,13 @@ import pygame  # noqa: E402
 
 from tracker.atomic import AtomicFile  # noqa: E402
 
-from .app import App, Calibration, GameOver, Menu, Pause, Play, Settings  # noqa: E402
+from .app import App, BoardSetupScreen, Calibration, GameOver, Menu, Pause, Play, Settings  # noqa: E402
 from .arena_model import Controls, Zombie, ZombieState  # noqa: E402
+from .board_setup import ACCEL_DONE, FAILED, MAG, MAG_DONE, MakerInput  # noqa: E402
 from .preferences import Preferences  # noqa: E402
 
 SIZE = (1280, 720)
+SETUP_LIMIT_S = 240.0  # the board setup's shots give up after this much simulated time
 
 
 def _app(folder: str) -> App:
@@ -69,7 +71,8 @@ def _raise_and_spin(app: App) -> None:
 
 
 def shots(out: str | os.PathLike) -> list[Path]:
-    """Render menu, calibration, play, pause, game over and settings to PNG files in ``out``."""
+    """Render menu, calibration, play, pause, game over, settings and the board setup (both procedures,
+    a few moments each) to PNG files in ``out``."""
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     written = []
@@ -103,9 +106,56 @@ def shots(out: str | os.PathLike) -> list[Path]:
         save("game_over")
         app.screen = Settings(app.game)
         save("settings")
+        board_setup_shots(app, save)
         app.screen = Menu(app.game)
         app.close()
     return written
+
+
+def board_setup_shots(app: App, save: Callable[[str], None]) -> None:
+    """The board setup with a simulated maker in simulated time, a few moments of each procedure:
+    a face held still, the board turning to the next, the accelerometer's result; the sphere a
+    third and two thirds covered, the magnetometer's result."""
+    from tracker.maker_sim import SimulatedMaker
+
+    dt = 1 / 60
+    app.game.use_source(MakerInput(SimulatedMaker(seed=7), dt))
+    screen = BoardSetupScreen(app.game)
+    app.screen = screen
+    moments: list[tuple[str, Callable[[], bool]]] = [
+        ("board_setup_accel_hold", lambda: len(accel().captured) == 2 and accel().still_s > 1.2),
+        ("board_setup_accel_turn", lambda: len(accel().captured) == 4 and accel().up is None),
+        ("board_setup_accel_done", lambda: phase() == ACCEL_DONE),
+        ("board_setup_mag_third", lambda: phase() == MAG and mag().coverage >= 0.33),
+        ("board_setup_mag_two_thirds", lambda: phase() == MAG and mag().coverage >= 0.67),
+        ("board_setup_mag_done", lambda: phase() == MAG_DONE)]
+
+    def phase() -> str:
+        return screen.setup.phase if screen.setup else ""
+
+    def accel():
+        assert screen.setup is not None
+        return screen.setup.accel_status
+
+    def mag():
+        assert screen.setup is not None
+        return screen.setup.mag_status
+
+    t = 0.0
+    while moments and t < SETUP_LIMIT_S:
+        app.frame([], dt, draw=False)
+        t += dt
+        if phase() == FAILED:
+            raise RuntimeError(f"the board setup failed: {screen.setup.message() if screen.setup else ''}")
+        name, reached = moments[0]
+        if screen.setup is not None and reached():
+            save(name)
+            moments.pop(0)
+            if phase() == ACCEL_DONE:
+                app.frame([_key(pygame.K_RETURN)], dt, draw=False)
+    if moments:
+        raise RuntimeError(f"the board setup did not reach {moments[0][0]} in {SETUP_LIMIT_S:g} s")
+    app.game.use_keyboard()
 
 
 def bench(frames: int = 300, progress: Callable[[str], None] | None = None) -> dict:
