@@ -16,7 +16,7 @@ import math
 import sys
 from pathlib import Path
 from dataclasses import dataclass, field, replace
-from typing import Callable, Protocol
+from typing import TYPE_CHECKING, Callable, Protocol
 
 import numpy as np
 import pygame
@@ -38,6 +38,10 @@ from .preferences import (Preferences, Score, add_score, load_preferences, load_
                           step_flex_on, storage_notice)
 from .render import Renderer
 from .wearing import arm_down, arm_down_then_forward, recenter
+
+if TYPE_CHECKING:  # the virtual board is imported only when one is used
+    from tracker.board import VirtualBoard
+    from tracker.motion import MotionSource
 
 WINDOW = (1280, 720)
 HOLD_S = {"down": 2.5, "forward": 2.0}
@@ -77,7 +81,7 @@ class Game:
     board_offer: str | None = None  # a board plugged in while on keyboard
     seed: int = 0
     config_dir: Path | None = None
-    virtual_board: object = None  # the simulated board behind --virtual
+    virtual_board: "VirtualBoard | None" = None  # the simulated board behind --virtual
     walker: Callable[[], Controls] | None = None  # who walks the player (None: the keyboard)
     on_launch: Callable[[GestureEvent], None] | None = None  # told of every launch (headless matches)
     arena_settings: ArenaSettings | None = None  # the rounds' arena (None: the defaults)
@@ -623,7 +627,7 @@ class BoardSetupScreen:
     setup: BoardSetup | None = None  # None until a board has said who it is
     clock: float = 0.0
     last: P.RawSample | None = None  # the newest sample already fed
-    lent: object = None  # the virtual board's player while the simulated maker holds the board
+    lent: "MotionSource | None" = None  # the virtual board's player while the simulated maker holds it
 
     def handle(self, event: pygame.event.Event) -> Screen | None:
         if event.type != pygame.KEYDOWN:
@@ -682,17 +686,16 @@ class BoardSetupScreen:
         if isinstance(game.tracker, MakerInput):
             maker = game.tracker.maker
         elif game.virtual_board is not None:
-            maker = self.lend_virtual_board()
+            maker = self.lend_virtual_board(game.virtual_board)
         return BoardSetup(board_id_of(hello), game.tracker.tracking.board, game.boards_folder(), maker,
                           game.apply_board_calibration)
 
-    def lend_virtual_board(self) -> Follower:
+    def lend_virtual_board(self, board: "VirtualBoard") -> Follower:
         """Hand the virtual board to a simulated maker until the screen is left: the same board (the
         virtual player's errors, drawn from the same seed) lying on a table."""
         from tracker.maker_sim import SimulatedMaker
 
         from .virtual_player import VirtualPlayer
-        board = self.game.virtual_board
         self.lent = board.motion
         errors = self.lent.script.profile.sensor_errors() if isinstance(self.lent, VirtualPlayer) else None
         maker = SimulatedMaker(errors, seed=self.game.seed)
@@ -747,9 +750,10 @@ class BoardSetupScreen:
         r.draw_face_chips(surface, pygame.Rect(side.left + 12, side.top + 20, side.width - 24, 48), asked,
                           status.captured, status.up, self.clock)
         hold = setup.accel.params.hold_s
-        r.draw_meter(surface, pygame.Rect(side.left + 16, side.top + 100, side.width - 32, 48),
-                     f"still {status.still_s:.1f} s of {hold:.1f}" + (f" on {status.up}" if status.up else ""),
-                     status.still_s / hold, GREEN)
+        still = "every face held still" if status.done else \
+            f"still {status.still_s:.1f} s of {hold:.1f}" + (f" on {status.up}" if status.up else "")
+        r.draw_meter(surface, pygame.Rect(side.left + 16, side.top + 100, side.width - 32, 48), still,
+                     1.0 if status.done else status.still_s / hold, GREEN)
         r.draw_meter(surface, pygame.Rect(side.left + 16, side.top + 180, side.width - 32, 48),
                      f"faces captured: {len(status.captured)} of 6", len(status.captured) / 6, YELLOW)
 

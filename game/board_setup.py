@@ -211,8 +211,7 @@ class BoardSetup:
         result = self.accel.result()
         if not result.ok:
             return self._fail(ACCEL, result.message)
-        exact = " (six poses, six unknowns: an exact fit)" if result.residual < 5e-4 else ""
-        self.figures = [f"residual {result.residual:.3f} m/s^2 over the six poses{exact}",
+        self.figures = [f"residual {result.residual:.3f} m/s^2 over the six poses",
                         "offset " + ", ".join(f"{v * 1000 / P.STANDARD_GRAVITY:+.0f}" for v in result.offset) + " mg",
                         "scale " + ", ".join(f"{v:.4f}" for v in result.scale)]
         self._save(ACCEL_DONE, *accel_fit(self.board_id, result))

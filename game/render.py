@@ -1550,7 +1550,7 @@ class Renderer:
 
     # ---------------------------------------------------------- board setup (the maker's calibrations)
 
-    def draw_board(self, surface: pygame.Surface, rect, up: Sequence[float] | None, title: str,
+    def draw_board(self, surface: pygame.Surface, rect, up: Sequence[float] | np.ndarray | None, title: str,
                    highlight: str | None = None, captured: Sequence[str] = (), turn: float = 0.0) -> None:
         """The sensor board as a box with its axes, turned so that the sensor-frame vector ``up`` points up.
 
@@ -1601,7 +1601,7 @@ class Renderer:
         pygame.draw.circle(surface, colour, b, 5)
         dx, dy = b[0] - a[0], b[1] - a[1]
         length = math.hypot(dx, dy) or 1.0
-        at = (b[0] + 16 * dx / length, b[1] + 16 * dy / length)
+        at = (round(b[0] + 16 * dx / length), round(b[1] + 16 * dy / length))
         self.text.blit(surface, "+" + "xyz"[axis], small, colour, at, "center")
 
     def _draw_chip(self, surface: pygame.Surface, view: np.ndarray, centre: np.ndarray, scale: float) -> None:
