@@ -252,13 +252,16 @@ class Menu:
     def update(self, dt: float) -> Screen | None:
         return None
 
+    def labels(self) -> list[str]:
+        """The items as shown: the board setup offered while the connected board has no saved calibration."""
+        return [f"{item}  (not done for this board)" if item == "Board setup" and self.game.board_uncalibrated
+                else item for item in self.items]
+
     def draw(self, surface: pygame.Surface) -> None:
         r = self.game.renderer
         r.draw_world(surface, self.game.arena, self.game.avatar, 0.0)
         r.draw_title(surface, "ENERGYBALL", "raise your arm, flex, snap it straight")
-        labels = [f"{item}  (not done for this board)" if item == "Board setup" and self.game.board_uncalibrated
-                  else item for item in self.items]
-        r.draw_menu(surface, labels, self.selected, surface.get_height() // 2 - 40)
+        r.draw_menu(surface, self.labels(), self.selected, surface.get_height() // 2 - 40)
         lines = [f"input: {self.game.hud()['input']}", *self.game.notices[-NOTICE_LINES:]]
         w, h = surface.get_size()
         height = 20 + 30 * len(lines)
