@@ -983,8 +983,9 @@ class BoardCalibration:
         names = [r.name for r in records]
         if len(set(names)) != len(names):
             raise ValueError("procedures: each procedure may be recorded once")
-        order = list(PROCEDURES)
-        object.__setattr__(self, "procedures", tuple(sorted(records, key=lambda r: order.index(r.name))))
+        in_order = tuple(r for name in PROCEDURES for r in records if r.name == name)  # (no closure:
+        # mypyc cannot build a lambda in a non-native class's method)
+        object.__setattr__(self, "procedures", in_order)
         object.__setattr__(self, "_plain", _PlainCalibration.of(self))
 
     def record(self, name: str) -> ProcedureRecord | None:
