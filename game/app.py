@@ -140,14 +140,18 @@ class Game:
         :func:`tracker.calibration.boards_dir`."""
         return self.config_dir / "boards" if self.config_dir is not None else None
 
+    def board_id_of(self, hello: P.Hello) -> str:
+        """The board's calibration file's id; the virtual board's never names a real board's file."""
+        return board_id_of(hello, virtual=self.virtual_board is not None)
+
     def load_board_calibration(self) -> None:
         """Once a board has said who it is: load its saved calibration and apply it; a board with none
         is said so once (and the menu offers the setup), and plays without."""
         hello = self.hello()
-        if hello is None or board_id_of(hello) == self.board_id:
+        if hello is None or self.board_id_of(hello) == self.board_id:
             return
-        calibration, loaded = load_for_hello(hello, self.boards_folder())
-        self.board_id = board_id_of(hello)
+        calibration, loaded = load_for_hello(hello, self.boards_folder(), virtual=self.virtual_board is not None)
+        self.board_id = self.board_id_of(hello)
         self.apply_board_calibration(calibration)
         self.board_uncalibrated = not calibration.procedures
         notice = calibration_notice(calibration, loaded)
@@ -690,7 +694,7 @@ class BoardSetupScreen:
             maker = game.tracker.maker
         elif game.virtual_board is not None:
             maker = self.lend_virtual_board(game.virtual_board)
-        return BoardSetup(board_id_of(hello), game.tracker.tracking.board, game.boards_folder(), maker,
+        return BoardSetup(game.board_id_of(hello), game.tracker.tracking.board, game.boards_folder(), maker,
                           game.apply_board_calibration)
 
     def lend_virtual_board(self, board: "VirtualBoard") -> Follower:

@@ -173,7 +173,8 @@ def wait_for_board(app, seconds=10.0):
     while app.game.board_id is None and time.monotonic() < deadline:
         app.frame([], DT)
         time.sleep(DT)
-    assert app.game.board_id == "imu-71", app.game.notices
+    # the virtual board sends the real firmware's HELLO; its file never is a real board's
+    assert app.game.board_id == "virtual-imu-71", app.game.notices
 
 
 def test_virtual_board_setup_end_to_end_with_a_pulled_cable(home):
@@ -194,8 +195,9 @@ def test_virtual_board_setup_end_to_end_with_a_pulled_cable(home):
         run_until(app, lambda: phase_of(app) == ACCEL_DONE, 60 * 90, real_time=True)
         app.frame([key(pygame.K_RETURN)], DT)
         run_until(app, lambda: phase_of(app) == MAG_DONE, 60 * 150, real_time=True)
-        saved = json.loads((home / "boards" / "imu-71.json").read_text())
+        saved = json.loads((home / "boards" / "virtual-imu-71.json").read_text())
         assert set(saved["procedures"]) == {"accel", "mag"}
+        assert not (home / "boards" / "imu-71.json").exists()
         assert saved["mag_hard_iron"] != [0.0, 0.0, 0.0] and saved["acc_offset"] != [0.0, 0.0, 0.0]
         app.frame([key(pygame.K_ESCAPE)], DT)
         assert isinstance(app.screen, Menu) and board.motion is player  # the player has it back
@@ -239,11 +241,13 @@ def test_no_saved_calibration_is_said_once_and_the_game_plays_without_it(home, c
 
 
 def test_a_saved_calibration_is_loaded_by_the_boards_identity_and_applied(home):
-    fitted = BoardCalibration("imu-71", acc_offset=np.array([0.3, -0.2, 0.1]), acc_scale=np.array([1.01, 0.99, 1.02]),
+    """The virtual board's file (``virtual-imu-71``: its HELLO is a real MPU-9250 board's)."""
+    fitted = BoardCalibration("virtual-imu-71", acc_offset=np.array([0.3, -0.2, 0.1]),
+                              acc_scale=np.array([1.01, 0.99, 1.02]),
                               mag_hard_iron=np.array([12.0, -30.0, 4.0]),
                               mag_soft_iron=np.array([[1.02, 0.01, 0.0], [0.01, 0.98, 0.0], [0.0, 0.0, 1.0]]))
-    save_procedure("imu-71", fitted, ProcedureRecord.now("accel", {"residual_m_s2": 0.0}), home / "boards")
-    save_procedure("imu-71", fitted, ProcedureRecord.now("mag", {"residual_ut": 0.5, "strength_ut": 48.0,
+    save_procedure("virtual-imu-71", fitted, ProcedureRecord.now("accel", {"residual_m_s2": 0.0}), home / "boards")
+    save_procedure("virtual-imu-71", fitted, ProcedureRecord.now("mag", {"residual_ut": 0.5, "strength_ut": 48.0,
                                                                  "dip_deg": 60.0}), home / "boards")
     app = App(input_choice="virtual", seed=0)
     try:
