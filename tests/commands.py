@@ -7,6 +7,9 @@ background (where a shell leaves SIGINT ignored, and a child would inherit that)
 
 from __future__ import annotations
 
+import argparse
+import contextlib
+import io
 import os
 import signal
 import subprocess
@@ -70,3 +73,13 @@ def one_clear_line(r: subprocess.CompletedProcess, *words: str, code: int | None
     for w in words:
         assert w in lines[0], (w, lines[0])
     return lines[0]
+
+
+def parse_in_process(parser: argparse.ArgumentParser, argv: list[str]) -> tuple[object, int | None, str]:
+    """(namespace or None, exit status or None, stderr) of ``parser`` parsing ``argv`` in this process."""
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        try:
+            return parser.parse_args(argv), None, err.getvalue()
+        except SystemExit as e:
+            return None, e.code, err.getvalue()

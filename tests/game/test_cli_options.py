@@ -7,8 +7,6 @@ more than 0 and up to 86,400 s (a day); 1 to 64 worker processes; 1 to
 
 from __future__ import annotations
 
-import contextlib
-import io
 import math
 
 import pytest
@@ -16,7 +14,7 @@ from hypothesis import given, settings, strategies as st
 
 from game.__main__ import build_parser
 
-from ..commands import one_clear_line, run
+from ..commands import one_clear_line, parse_in_process, run
 
 # (arguments before the option, option, kind, low, high, low excluded)
 OPTIONS = [
@@ -38,13 +36,8 @@ ANY_TEXT = st.one_of(
     st.floats(allow_nan=True, allow_infinity=True).map(repr), st.text(max_size=8))
 
 
-def parse(argv: list[str]):
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err):
-        try:
-            return PARSER.parse_args(argv), None, err.getvalue()
-        except SystemExit as e:
-            return None, e.code, err.getvalue()
+def parse(argv: list[str]) -> tuple[object, int | None, str]:
+    return parse_in_process(PARSER, argv)
 
 
 @pytest.mark.parametrize("before, option, kind, low, high, above", OPTIONS, ids=IDS)

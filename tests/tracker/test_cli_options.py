@@ -9,8 +9,6 @@ to 2 Mbps), durations above zero, probabilities in [0, 1], replay speeds from
 
 from __future__ import annotations
 
-import contextlib
-import io
 import math
 
 import pytest
@@ -18,7 +16,7 @@ from hypothesis import given, settings, strategies as st
 
 from tracker.__main__ import build_parser
 
-from ..commands import one_clear_line, run
+from ..commands import one_clear_line, parse_in_process, run
 
 # (command, the arguments it needs besides the option, option, kind, low, high, low excluded)
 OPTIONS = [
@@ -43,13 +41,7 @@ ANY_TEXT = st.one_of(ODD_TEXT, st.integers(-10**7, 10**7).map(str), st.integers(
 
 
 def parse(argv: list[str]) -> tuple[object, int | None, str]:
-    """(namespace or None, exit status or None, stderr) of parsing ``argv`` in process."""
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err):
-        try:
-            return PARSER.parse_args(argv), None, err.getvalue()
-        except SystemExit as e:
-            return None, e.code, err.getvalue()
+    return parse_in_process(PARSER, argv)
 
 
 def in_range(value: float, low: float, high: float, above: bool) -> bool:

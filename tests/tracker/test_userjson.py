@@ -115,24 +115,9 @@ def test_the_error_survives_pickling_as_worker_processes_send_it():
 from tracker import calibration as C  # noqa: E402
 from tracker.flex import FlexCalibration, FlexCalibrationError  # noqa: E402
 
-
-class Raw(str):
-    """Text put into a JSON document as it is (NaN, 1e400, 70 digits: what json.dumps cannot write)."""
+from ..json_text import ANY, RAW, Raw, dumps  # noqa: E402
 
 
-RAW = st.sampled_from(["NaN", "Infinity", "-Infinity", "1e400", "9" * 70, "true", "null", '"1.0"']).map(Raw)
-ANY = st.recursive(LEAVES | RAW, lambda inner: st.lists(inner, max_size=4)
-                   | st.dictionaries(st.text(max_size=6), inner, max_size=4), max_leaves=12)
-
-
-def dumps(value) -> str:
-    if isinstance(value, Raw):
-        return str(value)
-    if isinstance(value, list):
-        return "[" + ", ".join(map(dumps, value)) + "]"
-    if isinstance(value, dict):
-        return "{" + ", ".join(f"{json.dumps(k)}: {dumps(v)}" for k, v in value.items()) + "}"
-    return json.dumps(value)
 
 
 def edited(good: dict, keys: list[str]) -> st.SearchStrategy:
