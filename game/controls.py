@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from typing import Iterable
 
 import numpy as np
+from mypy_extensions import mypyc_attr
 
 from tracker import protocol as P
 from tracker import quat as Q
@@ -78,6 +79,7 @@ class KeyboardMouse:
         return tuple(float(c) for c in Q.multiply(arm, Q.conjugate(self.mount)))  # type: ignore[return-value]
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)  # the Board setup's simulated maker (game.board_setup) is one
 class SampleInput:
     """Board samples through :mod:`game.tracking` to ArmPoses, keeping the last seconds of raw ones.
 

@@ -269,9 +269,9 @@ class FlexCalibration:
         adc_max = FlexCircuit().adc_max
         if not (0 <= cal.adc_straight <= adc_max and 0 <= cal.adc_bent <= adc_max):
             raise FlexCalibrationError(f"flex calibration counts must lie within the ADC's 0-{adc_max}, "
-                                       f"not {cal.adc_straight!r} and {cal.adc_bent!r}")
+                                       f"not {cal.adc_straight:g} and {cal.adc_bent:g}")
         if not cal.bent_deg <= MAX_BENT_DEG:
-            raise FlexCalibrationError(f"flex calibration: bent angle {cal.bent_deg!r} must be at most "
+            raise FlexCalibrationError(f"flex calibration: bent angle {cal.bent_deg:g} must be at most "
                                        f"{MAX_BENT_DEG:g} degrees")
         return cal
 
