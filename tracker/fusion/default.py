@@ -29,8 +29,10 @@ Two things hold up on a real player with a real board:
   axis takes its turn at being horizontal, and the covariance gives the one
   that was vertical the larger gain. At rest (judged on low-passed signals,
   so that a tremor does not hide it) the low-passed gyroscope observes all
-  three. The uncertainty grows back when nothing observes it, so the
-  estimate follows the MPU-9250's warm-up drift.
+  three. The uncertainty grows back when nothing observes it, and the
+  bias's rate of change is estimated with it (a second Kalman state, a
+  type-2 loop), so the estimate follows the MPU-9250's warm-up drift
+  without lagging it, while a bias that starts unknown is found as offset.
 - The magnetometer is used only while its field is consistent: with a
   hard-iron offset or a soft-iron distortion (an uncalibrated board) or an
   indoor disturbance that changes with position, the field's norm and dip
@@ -38,7 +40,10 @@ Two things hold up on a real player with a real board:
   sample against an adapting reference; here their spread over a window is
   judged as well). A field found inconsistent is switched off (heading from
   the gyroscope alone; :attr:`DefaultFilter.status` says why) until it has
-  stayed consistent for a while with the board turning.
+  stayed consistent for a while with the board turning. A field switched on
+  again is on probation: it turns the heading slowly, and if it is found bad
+  meanwhile, what it taught is taken back, so it leaves the pose as no
+  magnetometer would have.
 """
 
 from __future__ import annotations
@@ -56,6 +61,7 @@ from .qmath import IDENTITY, Quat, Vec, about_z, from_rotvec, integrate, mul, no
 GRAVITY = 9.81
 BIAS_EVERY = 4  # samples per update of the bias in motion
 Sym3 = tuple[float, float, float, float, float, float]  # a symmetric 3x3 matrix: xx, xy, xz, yy, yz, zz
+Mat3 = tuple[float, float, float, float, float, float, float, float, float]  # a 3x3 matrix by rows
 
 MAG_STRENGTH = "field strength changes as the board moves (uncalibrated or disturbed?)"
 MAG_DIP = "field direction changes as the board moves (uncalibrated or disturbed?)"
@@ -77,10 +83,27 @@ class DefaultParams:
     0.2 rad/s. Rest: a tremor of 2 deg at 3-12 Hz (up to 150 deg/s) is cut by
     the 1 s low-pass ``rest_lp_tau`` to 0.2 deg/s at most (second-order
     roll-off from 0.23 Hz), under ``rest_gyr_th``.
+
+    Drift: the warm-up moves the bias by up to 4 deg/s over 10 minutes along a
+    first-order thermal curve of time constant 150-300 s (the board's heat
+    capacity over its thermal resistance), so at most 0.027 deg/s per s at
+    power-on: ``drift_max`` 0.05. The drift is a second state beside the bias
+    (bias' = drift, drift' = -drift / drift_tau + w): a random walk w of
+    spectral density 1 / drift_t^4 (in the units of ``bias_p``) gives the
+    steady-state Kalman loop of a measured double integrator a natural
+    frequency of 1 / drift_t and damping 1 / sqrt(2) (P. Zarchan and H. Musoff,
+    "Fundamentals of Kalman Filtering", 4th ed., sec. 4, the two-state
+    polynomial filter), slow beside the warm-up's 150 s and fast beside the
+    bias loop's own noise. 15 s, not faster: on the real recordings of BROAD
+    (9D) a drift_t of 10 s learns noise (mean total error 1.27 deg against
+    VQF's 1.26), 15 s gives 1.23; 6D play in the magnetic room drifts a few
+    degrees more than at 10 s. ``drift_tau`` lets it fade as the warming does (the
+    longer end of the range: the loop corrects a drift that fades sooner).
     """
 
     tau_acc: float = 3.0  # low-pass time constant of the accelerometer in frame I (VQF sec. 3.2)
     tau_mag: float = 15.0  # heading correction time constant (VQF sec. 3.4: 9 s; 15 keeps BROAD 9D under VQF)
+    tau_mag_probation: float = 60.0  # ... while a field just switched on is on probation (mag_on_t)
     rest_lp_tau: float = 1.0  # the rest test low-passes gyro and accelerometer first (VQF sec. 3.3)
     rest_gyr_th: float = math.radians(0.5)  # rest: the low-passed gyro varies less than this (rad/s)
     rest_acc_th: float = 0.2  # rest: the low-passed accelerometer varies less than this (m/s^2)
@@ -94,6 +117,9 @@ class DefaultParams:
     bias_turn_rate: float = 0.25  # turning this fast (rad/s, low-passed) halves what motion tells of the bias
     bias_forget_t: float = 20.0  # a bias direction nothing observes is unknown again after about this, s
     bias_max: float = math.radians(35.0)  # |bias| limit per axis: zero-rate output over temperature
+    drift_t: float = 15.0  # the drift's random walk makes the bias loop follow a ramp within about this, s
+    drift_tau: float = 300.0  # a learned drift fades with the board's thermal time constant (150-300 s)
+    drift_max: float = math.radians(0.05)  # |drift| limit per axis (rad/s per s): 4 deg/s of warm-up at 150 s
     mag_norm_th: float = 0.1  # field norm deviating by more than this fraction: disturbed
     mag_dip_th: float = math.radians(10.0)  # dip angle deviating by more than this: disturbed
     mag_ref_tau: float = 20.0  # how fast the undisturbed field reference (norm, dip) adapts
@@ -129,6 +155,9 @@ class DefaultState:
     q_inc: Quat = IDENTITY  # inclination correction I -> E
     heading: float = 0.0  # rotation about world z, radians
     bias: Vec = (0.0, 0.0, 0.0)  # gyroscope bias, rad/s, sensor frame
+    drift: Vec = (0.0, 0.0, 0.0)  # the bias's rate of change as the board warms, rad/s per s
+    drift_p: Sym3 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # the drift's covariance, in bias_p's units per s^2
+    cross_p: Mat3 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # bias-drift covariance, row i bias_i
     t: float = 0.0  # time since start
     acc_mean: Vec = (0.0, 0.0, 0.0)  # the accelerometer in I averaged over the start-up ...
     acc_n: int = 0  # ... of this many samples
@@ -145,6 +174,10 @@ class DefaultState:
     mag_good_t: float = 0.0  # seconds an unusable field has been consistent while turning
     mag_checked: bool = False  # the field has proved consistent while the board turned
     mag_reason: str = ""  # why the magnetometer is off ("": not found inconsistent)
+    mag_use_t: float = 0.0  # seconds the field has been in use since it was last switched on
+    taught_heading: float = 0.0  # the heading turns it made on probation (rad) ...
+    taught_bias: Vec = (0.0, 0.0, 0.0)  # ... and the bias it taught: taken back if it is found bad
+    drift_at_on: Vec = (0.0, 0.0, 0.0)  # the bias drift when it was switched on: restored then too
 
 
 class DefaultFilter(Filter[DefaultParams, DefaultState]):
@@ -179,6 +212,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         s, p = self._state, self.params
         s.t += dt
         self._forget_bias(dt)
+        self._drift_bias(dt)
         if acc is not None:
             self._detect_rest(gyr, acc, dt)
         # 1. Strapdown integration of the bias-corrected rate (VQF sec. 3.1).
@@ -216,13 +250,13 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         if rest:
             r = p.bias_tau_rest / p.bias_tau_min / dt  # the rest measurement's noise, as the motion's is 1/dt
             for axis, h in enumerate(((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))):
-                self._observe_bias(h, g[axis] - b[axis], r)
+                self._observe_bias(h, g[axis] - b[axis], r, drift=False)
 
     def _forget_bias(self, dt: float) -> None:
         """The bias's uncertainty grows back toward "unknown" (1 / bias_tau_min) over bias_forget_t.
 
-        P <- (1 - a) P + a P_max I, a = dt / T: a convex blend, so P stays a
-        covariance and never exceeds P_max, which bounds the gain (loop stability:
+        P <- (1 - a) P + a P_max I, a = dt / T (and the bias-drift covariance times
+        1 - a, the drift's kept): a convex blend, so P stays a covariance and P_bb never exceeds P_max, which bounds the gain (loop stability:
         :class:`DefaultParams`). It plays the role of VQF's bias forgetting time
         (sec. 3.3): the warm-up drift keeps changing what was learned.
         """
@@ -233,23 +267,79 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         c, m = 1.0 - a, a / p.bias_tau_min
         xx, xy, xz, yy, yz, zz = s.bias_p
         s.bias_p = (c * xx + m, c * xy, c * xz, c * yy + m, c * yz, c * zz + m)
+        s.cross_p = (c * s.cross_p[0], c * s.cross_p[1], c * s.cross_p[2], c * s.cross_p[3], c * s.cross_p[4],
+                     c * s.cross_p[5], c * s.cross_p[6], c * s.cross_p[7], c * s.cross_p[8])
 
-    def _observe_bias(self, h: Vec, innovation: float, r: float) -> None:
+    def _drift_bias(self, dt: float) -> None:
+        """The Kalman prediction of the drift state: the bias moves on by the drift, which
+        fades as the board's temperature settles and may change (a random walk).
+
+        The warm-up after power-on is a first-order thermal step, so the bias
+        follows b(t) = b_inf - c exp(-t / tau): its rate decays with the thermal
+        time constant ``drift_tau``. With F = [[I, dt I], [0, a I]], a = 1 - dt /
+        drift_tau: b <- b + dt d, d <- a d; P_bb <- P_bb + dt (P_bd + P_bd') +
+        dt^2 P_dd, P_bd <- a (P_bd + dt P_dd), P_dd <- a^2 P_dd + q dt I (any Kalman
+        text; Zarchan and Musoff sec. 4). Where gravity observes a bias direction
+        only now and then (the axis that is mostly vertical in play), a bias
+        loop without this state lags a ramp, and the lag becomes heading drift.
+        """
+        s, p = self._state, self.params
+        a, q = 1.0 - dt / p.drift_tau, dt / p.drift_t ** 4
+        dx, dy, dz = s.drift
+        b = s.bias
+        s.bias = self._clamp(b[0] + dx * dt, b[1] + dy * dt, b[2] + dz * dt)
+        m = p.drift_max
+        dx, dy, dz = dx * a, dy * a, dz * a
+        s.drift = ((dx if dx < m else m) if dx > -m else -m, (dy if dy < m else m) if dy > -m else -m,
+                   (dz if dz < m else m) if dz > -m else -m)
+        xx, xy, xz, yy, yz, zz = s.drift_p
+        c0, c1, c2, c3, c4, c5, c6, c7, c8 = s.cross_p
+        bxx, bxy, bxz, byy, byz, bzz = s.bias_p
+        h = dt * dt
+        s.bias_p = (bxx + dt * 2.0 * c0 + h * xx, bxy + dt * (c1 + c3) + h * xy, bxz + dt * (c2 + c6) + h * xz,
+                    byy + dt * 2.0 * c4 + h * yy, byz + dt * (c5 + c7) + h * yz, bzz + dt * 2.0 * c8 + h * zz)
+        s.cross_p = (a * (c0 + dt * xx), a * (c1 + dt * xy), a * (c2 + dt * xz),
+                     a * (c3 + dt * xy), a * (c4 + dt * yy), a * (c5 + dt * yz),
+                     a * (c6 + dt * xz), a * (c7 + dt * yz), a * (c8 + dt * zz))
+        a2 = a * a
+        s.drift_p = (a2 * xx + q, a2 * xy, a2 * xz, a2 * yy + q, a2 * yz, a2 * zz + q)
+
+    def _observe_bias(self, h: Vec, innovation: float, r: float, drift: bool = True) -> None:
         """One scalar Kalman update of the bias: the measurement h . b, ``innovation`` its
         measured minus predicted value (rad/s), ``r`` its noise in the units of ``bias_p``.
 
         K = P h / (h' P h + r);  b <- b + K innovation;  P <- P - K (P h)'
-        (any Kalman filter text; VQF sec. 3.3 uses the same update).
+        (any Kalman filter text; VQF sec. 3.3 uses the same update), here over the
+        state (bias, drift) with h = (h, 0): the drift moves by P_db h / (h' P_bb h + r).
+        ``drift`` False leaves the drift and its covariance as they are (a gain of 0 for
+        it; the Joseph form then gives the same P_bb and P_bd): at rest the bias is seen
+        directly through the rest test's low-pass, whose lag would teach a drift
+        while a bias that starts unknown is found; the magnetometer sees the heading
+        itself while it is trusted, and a field not yet found bad must leave nothing
+        behind that outlasts its switching off.
         """
         s = self._state
         xx, xy, xz, yy, yz, zz = s.bias_p
         hx, hy, hz = h
         px, py, pz = xx * hx + xy * hy + xz * hz, xy * hx + yy * hy + yz * hz, xz * hx + yz * hy + zz * hz
+        c0, c1, c2, c3, c4, c5, c6, c7, c8 = s.cross_p  # P_db h = P_bd' h: how the drift covaries
+        qx, qy, qz = c0 * hx + c3 * hy + c6 * hz, c1 * hx + c4 * hy + c7 * hz, c2 * hx + c5 * hy + c8 * hz
         scale = 1.0 / (hx * px + hy * py + hz * pz + r)
         kx, ky, kz = px * scale, py * scale, pz * scale
+        jx, jy, jz = qx * scale, qy * scale, qz * scale  # the drift's gain
         s.bias_p = (xx - kx * px, xy - kx * py, xz - kx * pz, yy - ky * py, yz - ky * pz, zz - kz * pz)
+        s.cross_p = (c0 - kx * qx, c1 - kx * qy, c2 - kx * qz, c3 - ky * qx, c4 - ky * qy, c5 - ky * qz,
+                     c6 - kz * qx, c7 - kz * qy, c8 - kz * qz)
         b = s.bias
         s.bias = self._clamp(b[0] + kx * innovation, b[1] + ky * innovation, b[2] + kz * innovation)
+        if not drift:
+            return
+        dxx, dxy, dxz, dyy, dyz, dzz = s.drift_p
+        s.drift_p = (dxx - jx * qx, dxy - jx * qy, dxz - jx * qz, dyy - jy * qy, dyz - jy * qz, dzz - jz * qz)
+        d, m = s.drift, self.params.drift_max
+        dx, dy, dz = d[0] + jx * innovation, d[1] + jy * innovation, d[2] + jz * innovation
+        s.drift = ((dx if dx < m else m) if dx > -m else -m, (dy if dy < m else m) if dy > -m else -m,
+                   (dz if dz < m else m) if dz > -m else -m)
 
     def _clamp(self, x: float, y: float, z: float) -> Vec:
         """The bias (x, y, z) limited to +-bias_max per axis."""
@@ -340,12 +430,37 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         # turning about +z by that angle brings it back to north.
         target = math.atan2(mx, my)
         err = (target - s.heading + math.pi) % (2 * math.pi) - math.pi
-        k = dt / p.tau_mag
+        # On probation (its first mag_on_t of use) the field turns the heading more slowly.
+        k = dt / (p.tau_mag if s.mag_use_t > p.mag_on_t else p.tau_mag_probation)
         if s.t <= p.startup_t:
             k = max(k, 1.0 / s.mag_samples)  # fast start: plain average of the first second
         else:
+            b = s.bias
             self._learn_bias_from_heading(q6, k * err / dt, dt)
+            self._remember_field(k * err, (s.bias[0] - b[0], s.bias[1] - b[1], s.bias[2] - b[2]), dt)
         s.heading = (s.heading + k * err + math.pi) % (2 * math.pi) - math.pi
+
+    def _remember_field(self, turn: float, db: Vec, dt: float) -> None:
+        """What a field taught (heading turn, bias change) in its first ``mag_on_t`` of use:
+        a field back in use is on probation that long, and if found bad meanwhile all it
+        taught is taken back (:meth:`_take_back_field`), so a bad field that once looked
+        consistent leaves the pose no worse than no magnetometer would have."""
+        s = self._state
+        s.mag_use_t += dt
+        if s.mag_use_t > self.params.mag_on_t:
+            s.taught_heading, s.taught_bias = 0.0, (0.0, 0.0, 0.0)  # proved itself: kept
+            return
+        (x, y, z) = s.taught_bias
+        s.taught_heading += turn
+        s.taught_bias = (x + db[0], y + db[1], z + db[2])
+
+    def _take_back_field(self) -> None:
+        """A field found bad on probation: what it taught is taken back (:meth:`_remember_field`)."""
+        s = self._state
+        (x, y, z), b = s.taught_bias, s.bias
+        s.bias = self._clamp(b[0] - x, b[1] - y, b[2] - z)
+        s.heading = (s.heading - s.taught_heading + math.pi) % (2 * math.pi) - math.pi
+        s.taught_heading, s.taught_bias, s.drift = 0.0, (0.0, 0.0, 0.0), s.drift_at_on
 
     def _learn_bias_from_heading(self, q6: Quat, c: float, dt: float) -> None:
         """The bias about the vertical from the heading correction rate ``c`` (rad/s): the
@@ -361,7 +476,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         p = self.params
         w, x, y, z = q6
         h = (2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y))
-        self._observe_bias(h, -c, p.tau_mag / p.bias_tau_min / dt)
+        self._observe_bias(h, -c, p.tau_mag / p.bias_tau_min / dt, drift=False)
 
     def _field_undisturbed(self, norm: float, dip: float, dt: float) -> bool:
         """Magnetic disturbance test on the field's norm and dip angle (VQF sec. 3.4)."""
@@ -420,6 +535,8 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         reason = (MAG_STRENGTH if s.win_norm_var > th_norm * th_norm else
                   MAG_DIP if s.win_dip_var > p.mag_dip_sd_th * p.mag_dip_sd_th else "")
         if reason:
+            if s.mag_checked:
+                self._take_back_field()
             s.mag_reason, s.mag_good_t, s.mag_checked = reason, 0.0, False
         elif not s.mag_checked:
             (y0, y1, y2), (z0, z1, z2) = s.win_y, s.win_z
@@ -428,6 +545,8 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
             s.mag_good_t = s.mag_good_t + dt if turned > p.mag_turn_th or not s.mag_reason else 0.0
             if s.mag_good_t >= p.mag_on_t:  # consistent long enough while turning: used, the window its reference
                 s.mag_reason, s.mag_good_t, s.mag_checked = "", 0.0, True
+                s.mag_use_t, s.taught_heading, s.taught_bias = 0.0, 0.0, (0.0, 0.0, 0.0)
+                s.drift_at_on = s.drift
                 s.mag_norm, s.mag_dip = s.win_norm, s.win_dip
 
 
