@@ -67,6 +67,13 @@ MAG_STRENGTH = "field strength changes as the board moves (uncalibrated or distu
 MAG_DIP = "field direction changes as the board moves (uncalibrated or disturbed?)"
 
 
+def _limit(x: float, y: float, z: float, m: float) -> Vec:
+    """(x, y, z) limited to +-m per axis: max(-m, min(m, .)) as conditionals (NaN included; no
+    builtin calls in the compiled build)."""
+    x, y, z = (x if x < m else m), (y if y < m else m), (z if z < m else m)
+    return (x if x > -m else -m), (y if y > -m else -m), (z if z > -m else -m)
+
+
 @dataclass(frozen=True)
 class DefaultParams:
     """Settings of the default filter (times in seconds, thresholds in SI units).
@@ -255,8 +262,9 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
     def _forget_bias(self, dt: float) -> None:
         """The bias's uncertainty grows back toward "unknown" (1 / bias_tau_min) over bias_forget_t.
 
-        P <- (1 - a) P + a P_max I, a = dt / T (and the bias-drift covariance times
-        1 - a, the drift's kept): a convex blend, so P stays a covariance and P_bb never exceeds P_max, which bounds the gain (loop stability:
+        P <- (1 - a) P + a P_max I, a = dt / T (the bias-drift covariance times 1 - a,
+        the drift's kept): a convex blend, so P stays a covariance and P_bb never
+        exceeds P_max, which bounds the gain (loop stability:
         :class:`DefaultParams`). It plays the role of VQF's bias forgetting time
         (sec. 3.3): the warm-up drift keeps changing what was learned.
         """
@@ -290,8 +298,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         s.bias = self._clamp(b[0] + dx * dt, b[1] + dy * dt, b[2] + dz * dt)
         m = p.drift_max
         dx, dy, dz = dx * a, dy * a, dz * a
-        s.drift = ((dx if dx < m else m) if dx > -m else -m, (dy if dy < m else m) if dy > -m else -m,
-                   (dz if dz < m else m) if dz > -m else -m)
+        s.drift = _limit(dx, dy, dz, m)
         xx, xy, xz, yy, yz, zz = s.drift_p
         c0, c1, c2, c3, c4, c5, c6, c7, c8 = s.cross_p
         bxx, bxy, bxz, byy, byz, bzz = s.bias_p
@@ -338,15 +345,11 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         s.drift_p = (dxx - jx * qx, dxy - jx * qy, dxz - jx * qz, dyy - jy * qy, dyz - jy * qz, dzz - jz * qz)
         d, m = s.drift, self.params.drift_max
         dx, dy, dz = d[0] + jx * innovation, d[1] + jy * innovation, d[2] + jz * innovation
-        s.drift = ((dx if dx < m else m) if dx > -m else -m, (dy if dy < m else m) if dy > -m else -m,
-                   (dz if dz < m else m) if dz > -m else -m)
+        s.drift = _limit(dx, dy, dz, m)
 
     def _clamp(self, x: float, y: float, z: float) -> Vec:
         """The bias (x, y, z) limited to +-bias_max per axis."""
-        m = self.params.bias_max
-        # max(-m, min(m, .)) per axis (NaN included) as conditionals: no builtin calls.
-        x, y, z = (x if x < m else m), (y if y < m else m), (z if z < m else m)
-        return (x if x > -m else -m), (y if y > -m else -m), (z if z > -m else -m)
+        return _limit(x, y, z, self.params.bias_max)
 
     # ------------------------------------------------------------ inclination
 
@@ -535,7 +538,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         reason = (MAG_STRENGTH if s.win_norm_var > th_norm * th_norm else
                   MAG_DIP if s.win_dip_var > p.mag_dip_sd_th * p.mag_dip_sd_th else "")
         if reason:
-            if s.mag_checked:
+            if s.mag_checked and s.mag_use_t <= p.mag_on_t:  # found bad on probation
                 self._take_back_field()
             s.mag_reason, s.mag_good_t, s.mag_checked = reason, 0.0, False
         elif not s.mag_checked:
