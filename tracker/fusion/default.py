@@ -293,12 +293,12 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         """
         s, p = self._state, self.params
         a, q = 1.0 - dt / p.drift_tau, dt / p.drift_t ** 4
+        if a < 0.0:
+            a = 0.0  # a gap longer than drift_tau: the drift has faded (and stays within drift_max)
         dx, dy, dz = s.drift
         b = s.bias
         s.bias = self._clamp(b[0] + dx * dt, b[1] + dy * dt, b[2] + dz * dt)
-        m = p.drift_max
-        dx, dy, dz = dx * a, dy * a, dz * a
-        s.drift = _limit(dx, dy, dz, m)
+        s.drift = (dx * a, dy * a, dz * a)
         xx, xy, xz, yy, yz, zz = s.drift_p
         c0, c1, c2, c3, c4, c5, c6, c7, c8 = s.cross_p
         bxx, bxy, bxz, byy, byz, bzz = s.bias_p
@@ -451,8 +451,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         s = self._state
         s.mag_use_t += dt
         if s.mag_use_t > self.params.mag_on_t:
-            s.taught_heading, s.taught_bias = 0.0, (0.0, 0.0, 0.0)  # proved itself: kept
-            return
+            return  # proved itself: what it teaches is kept (nothing is taken back after probation)
         (x, y, z) = s.taught_bias
         s.taught_heading += turn
         s.taught_bias = (x + db[0], y + db[1], z + db[2])
