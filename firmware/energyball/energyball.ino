@@ -179,12 +179,22 @@ static void note_i2c(bool ok)
     }
 }
 
+/* Only RAW frames carry the magnetometer; the filter does not use it. */
+static bool mag_wanted()
+{
+#if EB_LEGACY_TEXT
+    return false;
+#else
+    return imu.mag_whoami && state.mode == EB_MODE_RAW;
+#endif
+}
+
 static bool read_sensors(Reading &r)
 {
     PHASE_ON(PHASE_READ);
     ImuRead got = imu_read(r.acc, r.gyr);
     note_i2c(got == IMU_READ_OK);
-    if (got == IMU_READ_OK && imu.mag_whoami)
+    if (got == IMU_READ_OK && mag_wanted())
         note_i2c(imu_read_mag(imu));
     r.flex_sum = 0;
     for (uint8_t i = 0; i < FLEX_OVERSAMPLE; i++)

@@ -22,8 +22,10 @@ static const uint32_t I2C_TIMEOUT_US = 3000;
  * start-up delay), so waiting until 100 ms on millis() covers it with room. */
 static const uint32_t IMU_STARTUP_MS = 100;
 static const uint8_t WHOAMI_RETRY_MS = 2;
-/* The AK8963 measures at 100 Hz in continuous mode 2 (MS1356-E-02 sec. 6.4.3); a
- * reading older than two and a half periods means it stopped. */
+/* The AK8963 measures at 100 Hz in continuous mode 2 (MS1356-E-02 sec. 6.4.3): it is
+ * read once a period (at 100 kHz its 11 bytes take 1 ms of the sample's budget), and
+ * a reading older than two and a half periods means it stopped. */
+static const uint32_t MAG_PERIOD_MS = 10;
 static const uint32_t MAG_FRESH_MS = 25;
 
 /* Free the bus (a slave may hold SDA after an AVR reset) and start the TWI master. */
@@ -154,6 +156,8 @@ ImuRead imu_read(int16_t acc[3], int16_t gyr[3])
 
 bool imu_read_mag(Imu &imu)
 {
+    if (imu.mag_seen && millis() - imu.mag_ms < MAG_PERIOD_MS)
+        return true; /* its next measurement is not due yet */
     uint8_t data[AK_READ_LEN]; /* reading through ST2 ends the read (datasheet 6.4.3.2) */
     if (!read_regs(AK_ADDR, AK_ST1, data, AK_READ_LEN)) {
         imu.mag_seen = false; /* the held reading is not sent as valid any more */

@@ -33,8 +33,8 @@ bool imu_set_rate(uint16_t rate_hz);
 /* Burst-read accelerometer and gyroscope counts, checked against a configuration
  * register read in the same burst. */
 ImuRead imu_read(int16_t acc[3], int16_t gyr[3]);
-/* Read the AK8963 (ST1..ST2); a new measurement replaces imu.mag. A failed read
- * makes the held one invalid. */
+/* Read the AK8963 (ST1..ST2) if its next measurement is due; a new measurement
+ * replaces imu.mag. A failed read makes the held one invalid. */
 bool imu_read_mag(Imu &imu);
 /* Whether imu.mag is a valid recent measurement (the RAW frame's mag_valid). */
 bool imu_mag_valid(const Imu &imu);

@@ -233,7 +233,7 @@ typedef struct board {
 	int i2c_busy;
 	uint64_t i2c_busy_since;
 	uint64_t i2c_bus_cycles;  /* simulated bus time, cycles */
-	uint64_t i2c_transactions, i2c_nacks;
+	uint64_t i2c_transactions, i2c_nacks, i2c_bytes;
 	/* ADC */
 	avr_irq_t *adc0;
 } board_t;
@@ -294,6 +294,7 @@ static void i2c_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 	if (msg & (TWI_COND_START | TWI_COND_WRITE | TWI_COND_READ)) {
 		b->i2c_busy = 1; /* until the TWI sets its next status */
 		b->i2c_busy_since = b->avr->cycle;
+		b->i2c_bytes++;
 		i2cbus_byte(&b->bus);
 	}
 	if (msg & TWI_COND_STOP) {
@@ -703,11 +704,11 @@ static void print_json(FILE *f, const board_t *b, end_t end, double wall)
 		(unsigned long long)u->by_type[EB_RAW], (unsigned long long)u->by_type[EB_FUSED],
 		(unsigned long long)u->by_type[EB_HELLO], (unsigned long long)u->by_type[EB_ACK],
 		(unsigned long long)other);
-	fprintf(f, "  \"i2c\": {\"transactions\": %llu, \"nacks\": %llu, \"bus_cycles\": %llu, "
-		"\"scl_hz\": %u, \"stuck\": %llu, \"cleared\": %llu, \"blocked\": %s, "
+	fprintf(f, "  \"i2c\": {\"transactions\": %llu, \"nacks\": %llu, \"bytes\": %llu, "
+		"\"bus_cycles\": %llu, \"scl_hz\": %u, \"stuck\": %llu, \"cleared\": %llu, \"blocked\": %s, "
 		"\"pullup_ms\": %llu},\n",
 		(unsigned long long)b->i2c_transactions, (unsigned long long)b->i2c_nacks,
-		(unsigned long long)b->i2c_bus_cycles, F_CPU / i2cbus_scl_cycles(b->avr),
+		(unsigned long long)b->i2c_bytes, (unsigned long long)b->i2c_bus_cycles, F_CPU / i2cbus_scl_cycles(b->avr),
 		(unsigned long long)b->bus.stuck, (unsigned long long)b->bus.cleared,
 		i2cbus_blocked(&b->bus) ? "true" : "false", (unsigned long long)b->bus.pullup_ms);
 	fprintf(f, "  \"resets\": %llu,\n", (unsigned long long)b->resets);
