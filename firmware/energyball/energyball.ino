@@ -8,7 +8,8 @@
  *
  * Timing: Timer1 raises an interrupt at each sample instant (sampler.cpp); the
  * loop serves host commands, takes the samples due, and sends status. Nothing
- * waits on delay() once running, and every I2C transfer has a timeout.
+ * waits on delay() once running (but re-configuring an IMU that lost power), every
+ * I2C transfer has a timeout, and a watchdog resets a board whose loop stops.
  *
  * Phase markers, for cycle counting by the AVR simulator harness (firmware/sim/):
  * PORTB pins written directly (one sbi/cbi instruction each),
