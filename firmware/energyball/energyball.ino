@@ -8,7 +8,8 @@
  *
  * Timing: Timer1 raises an interrupt at each sample instant (sampler.cpp); the
  * loop serves host commands, takes the samples due, and sends status. Nothing
- * waits on delay() once running, and every I2C transfer has a timeout.
+ * waits on delay() once running (but re-configuring an IMU that lost power), every
+ * I2C transfer has a timeout, and a watchdog resets a board whose loop stops.
  *
  * Phase markers, for cycle counting by the AVR simulator harness (firmware/sim/):
  * PORTB pins written directly (one sbi/cbi instruction each),
@@ -20,6 +21,7 @@
  * a fast 5 Hz blink while the IMU is missing or failing.
  */
 #include <avr/eeprom.h>
+#include <avr/wdt.h>
 
 #include "imu.h"
 #include "sampler.h"
@@ -132,7 +134,8 @@ static void measure_gyro_bias()
     show_led(EB_LED_CALIBRATING); /* steady: keep still */
     for (uint8_t i = 0; i < EB_BIAS_SAMPLES; i++) {
         int16_t acc[3], gyr[3];
-        if (!imu_read(acc, gyr))
+        wdt_reset();
+        if (imu_read(acc, gyr) != IMU_READ_OK)
             break;
         eb_still_add(&still, gyr, acc);
         delayMicroseconds(1000); /* the MPU's internal rate: a new sample each ms */
@@ -149,12 +152,17 @@ static void measure_gyro_bias()
     }
 }
 
-static void bring_up_imu()
+static void init_imu()
 {
     uint16_t found = imu_init(imu, state.rate_hz);
     errors = (uint16_t)((errors & ~(EB_ERR_IMU_MISSING | EB_ERR_MAG_MISSING)) | found);
     imu_ready = !(found & (EB_ERR_IMU_MISSING | EB_ERR_I2C_FAILURE));
     i2c_failures = 0;
+}
+
+static void bring_up_imu()
+{
+    init_imu();
     if (imu_ready)
         measure_gyro_bias();
 }
@@ -172,18 +180,30 @@ static void note_i2c(bool ok)
     }
 }
 
+/* Only RAW frames carry the magnetometer; the filter does not use it. */
+static bool mag_wanted()
+{
+#if EB_LEGACY_TEXT
+    return false;
+#else
+    return imu.mag_whoami && state.mode == EB_MODE_RAW;
+#endif
+}
+
 static bool read_sensors(Reading &r)
 {
     PHASE_ON(PHASE_READ);
-    bool ok = imu_read(r.acc, r.gyr);
-    note_i2c(ok);
-    if (ok && imu.mag_whoami)
+    ImuRead got = imu_read(r.acc, r.gyr);
+    note_i2c(got == IMU_READ_OK);
+    if (got == IMU_READ_OK && mag_wanted())
         note_i2c(imu_read_mag(imu));
     r.flex_sum = 0;
     for (uint8_t i = 0; i < FLEX_OVERSAMPLE; i++)
         r.flex_sum += (uint16_t)analogRead(FLEX_PIN);
     PHASE_OFF(PHASE_READ);
-    return ok;
+    if (got == IMU_READ_RESET)
+        init_imu(); /* it lost power: configure it again (I2C_FAILURE is reported; the bias is kept) */
+    return got == IMU_READ_OK;
 }
 
 static uint16_t flex_adc(const Reading &r)
@@ -238,7 +258,7 @@ static void emit_sample(const Reading &r, uint32_t t_us)
     } else {
         eb_raw_t s = {t_us, state.seq, {r.acc[0], r.acc[1], r.acc[2]}, {r.gyr[0], r.gyr[1], r.gyr[2]},
                       {imu.mag.mag[0], imu.mag.mag[1], imu.mag.mag[2]}, flex_adc(r), EB_ACC_FS,
-                      EB_GYR_FS, imu.mag_seen, imu.mag_seen && imu.mag.overflow};
+                      EB_GYR_FS, imu_mag_valid(imu), imu_mag_valid(imu) && imu.mag.overflow};
         n = eb_encode_raw(frame, &s);
     }
     PHASE_OFF(PHASE_COMPUTE);
@@ -373,13 +393,30 @@ static void show_status_led()
     show_led(!imu_ready ? EB_LED_ERROR : state.streaming ? EB_LED_STREAMING : EB_LED_IDLE);
 }
 
+/* ------------------------------------------------------------ watchdog */
+
+/* A hang (a wait that never ends, a corrupted return address) resets the board.
+ * The longest legitimate stretch without wdt_reset() is the IMU's set-up, about
+ * 210 ms (WHO_AM_I within the start-up time, 100 ms after H_RESET). */
+static const uint8_t WATCHDOG_PERIOD = WDTO_500MS;
+
+/* After a watchdog reset the watchdog stays on at its shortest period (16 ms), as
+ * WDRF in MCUSR forces WDE (DS40002061, WDTCSR); Optiboot clears it, but the board
+ * must not depend on its bootloader. So before main(): clear WDRF, then turn it off. */
+void watchdog_off_at_start() __attribute__((naked, used, section(".init3")));
+void watchdog_off_at_start()
+{
+    MCUSR = 0;
+    wdt_disable();
+}
+
 /* ------------------------------------------------------------ Arduino */
 
 void setup()
 {
+    wdt_enable(WATCHDOG_PERIOD);
     DDRB |= PHASE_READ | PHASE_COMPUTE | PHASE_SEND | LED_PIN_MASK;
     Serial.begin(BAUD);
-    imu_bus_begin();
     state.rate_hz = EB_BOOT_RATE_HZ; /* for the DLPF at bring-up */
     bring_up_imu();
     power_up();
@@ -388,6 +425,7 @@ void setup()
 
 void loop()
 {
+    wdt_reset();
     serve_commands();
     run_due_samples();
     check_health();

@@ -5,16 +5,46 @@
 #include <Arduino.h>
 #include <Wire.h>
 
+#include "i2cbus.h"
 #include "src/eb_protocol.h"
 
-static const uint32_t I2C_CLOCK_HZ = 400000; /* fast mode, product specification sec. 7.3 */
-static const uint32_t I2C_TIMEOUT_US = 2000; /* a 14-byte burst takes about 0.4 ms */
+/* Standard mode. Over an arm-length cable with the breakout's 10 kOhm pull-ups the
+ * rise time is t_r = 0.8473 R C_b (UM10204 rev. 7, sec. 7.1): with C_b = 80 pF (about
+ * 0.75 m of cable at 70 pF/m, two 10 pF pins, PCB) that is 680 ns, over Fast-mode's
+ * 300 ns but within Standard-mode's 1000 ns (UM10204 table 10). firmware/README.md
+ * has the sums and the sample budget. */
+static const uint32_t I2C_CLOCK_HZ = 100000;
+/* Each of Wire's waits is bounded; the longest transfer, the 18-byte burst with its
+ * address, is 19 x 9 clocks = 1.7 ms at 100 kHz. */
+static const uint32_t I2C_TIMEOUT_US = 3000;
+/* Start-up time for register read/write from power-up: 11 ms typical, 100 ms maximum
+ * (PS-MPU-9250A-01 sec. 3.4.2); millis() starts 65 ms after power-up (the crystal's
+ * start-up delay), so waiting until 100 ms on millis() covers it with room. */
+static const uint32_t IMU_STARTUP_MS = 100;
+static const uint8_t WHOAMI_RETRY_MS = 2;
+/* The AK8963 measures at 100 Hz in continuous mode 2 (MS1356-E-02 sec. 6.4.3): it is
+ * read once a period (at 100 kHz its 11 bytes take 1 ms of the sample's budget), and
+ * a reading older than two and a half periods means it stopped. */
+static const uint32_t MAG_PERIOD_MS = 10;
+static const uint32_t MAG_FRESH_MS = 25;
 
-void imu_bus_begin()
+/* Free the bus (a slave may hold SDA after an AVR reset) and start the TWI master. */
+static void bus_begin()
 {
+    Wire.end();
+    i2cbus_clear();
     Wire.begin();
+    i2cbus_pullups_off();
     Wire.setClock(I2C_CLOCK_HZ);
     Wire.setWireTimeout(I2C_TIMEOUT_US, true);
+}
+
+/* After a failure Wire may have reset the TWI, which turns the pull-ups on again. */
+static bool checked(bool ok)
+{
+    if (!ok)
+        i2cbus_pullups_off();
+    return ok;
 }
 
 static bool write_reg(uint8_t addr, uint8_t reg, uint8_t value)
@@ -22,7 +52,7 @@ static bool write_reg(uint8_t addr, uint8_t reg, uint8_t value)
     Wire.beginTransmission(addr);
     Wire.write(reg);
     Wire.write(value);
-    return Wire.endTransmission() == 0;
+    return checked(Wire.endTransmission() == 0);
 }
 
 static bool read_regs(uint8_t addr, uint8_t reg, uint8_t *out, uint8_t n)
@@ -30,11 +60,22 @@ static bool read_regs(uint8_t addr, uint8_t reg, uint8_t *out, uint8_t n)
     Wire.beginTransmission(addr);
     Wire.write(reg);
     if (Wire.endTransmission(false) != 0) /* repeated start before the read */
-        return false;
+        return checked(false);
     if (Wire.requestFrom(addr, n) != n)
-        return false;
+        return checked(false);
     for (uint8_t i = 0; i < n; i++)
         out[i] = (uint8_t)Wire.read();
+    return true;
+}
+
+/* WHO_AM_I, retried until the MPU's start-up time after power-up has passed. */
+static bool read_whoami(uint8_t *whoami)
+{
+    while (!read_regs(MPU_ADDR, MPU_WHO_AM_I, whoami, 1)) {
+        if (millis() >= IMU_STARTUP_MS)
+            return false;
+        delay(WHOAMI_RETRY_MS);
+    }
     return true;
 }
 
@@ -82,7 +123,8 @@ uint16_t imu_init(Imu &imu, uint16_t rate_hz)
 {
     imu.whoami = imu.mag_whoami = 0;
     imu.mag_seen = false;
-    if (!read_regs(MPU_ADDR, MPU_WHO_AM_I, &imu.whoami, 1) || !eb_imu_known(imu.whoami))
+    bus_begin();
+    if (!read_whoami(&imu.whoami) || !eb_imu_known(imu.whoami))
         return EB_ERR_IMU_MISSING;
     if (!configure_mpu(rate_hz))
         return EB_ERR_I2C_FAILURE;
@@ -95,25 +137,43 @@ uint16_t imu_init(Imu &imu, uint16_t rate_hz)
     return 0;
 }
 
-bool imu_read(int16_t acc[3], int16_t gyr[3])
+/* A supply glitch resets every register (RM-MPU-9250A-00: all 0 but PWR_MGMT_1 and
+ * WHO_AM_I), and
+ * the data still reads fine, at +-2 g / +-250 deg/s. So the burst starts at
+ * INT_PIN_CFG (0x37, reset value 0; ours has BYPASS_EN): 0x37..0x3A, then the
+ * 14 data bytes. The check and the data come from one transfer, so no sample of
+ * a reset chip is ever taken. */
+ImuRead imu_read(int16_t acc[3], int16_t gyr[3])
 {
-    uint8_t burst[MPU_BURST_LEN];
-    if (!read_regs(MPU_ADDR, MPU_ACCEL_XOUT_H, burst, MPU_BURST_LEN))
-        return false;
-    eb_mpu_parse(burst, acc, gyr);
-    return true;
+    uint8_t burst[MPU_CHECKED_BURST_LEN];
+    if (!read_regs(MPU_ADDR, MPU_INT_PIN_CFG, burst, MPU_CHECKED_BURST_LEN))
+        return IMU_READ_FAILED;
+    if (burst[0] != MPU_BYPASS_EN)
+        return IMU_READ_RESET;
+    eb_mpu_parse(burst + MPU_CHECKED_BURST_LEN - MPU_BURST_LEN, acc, gyr);
+    return IMU_READ_OK;
 }
 
 bool imu_read_mag(Imu &imu)
 {
+    if (imu.mag_seen && millis() - imu.mag_ms < MAG_PERIOD_MS)
+        return true; /* its next measurement is not due yet */
     uint8_t data[AK_READ_LEN]; /* reading through ST2 ends the read (datasheet 6.4.3.2) */
-    if (!read_regs(AK_ADDR, AK_ST1, data, AK_READ_LEN))
+    if (!read_regs(AK_ADDR, AK_ST1, data, AK_READ_LEN)) {
+        imu.mag_seen = false; /* the held reading is not sent as valid any more */
         return false;
+    }
     eb_mag_t m;
     eb_ak_parse(data, imu.asa, &m);
     if (m.ready) {
         imu.mag = m;
         imu.mag_seen = true;
+        imu.mag_ms = millis();
     }
     return true;
+}
+
+bool imu_mag_valid(const Imu &imu)
+{
+    return imu.mag_seen && millis() - imu.mag_ms <= MAG_FRESH_MS;
 }

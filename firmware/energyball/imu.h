@@ -13,19 +13,30 @@ struct Imu {
     uint8_t mag_whoami; /* AK8963 WIA, 0 when there is no magnetometer */
     uint8_t asa[3]; /* AK8963 fuse-ROM sensitivity adjustment */
     eb_mag_t mag; /* the latest magnetometer reading (held between its 100 Hz updates) */
-    bool mag_seen; /* a reading has arrived since start-up */
+    bool mag_seen; /* a reading has arrived since start-up, and no read has failed since */
+    uint32_t mag_ms; /* millis() when it arrived */
 };
 
-/* Start the I2C bus: 400 kHz, a timeout that resets the TWI. */
-void imu_bus_begin();
-/* Identify and configure the IMU (and the AK8963 if present); returns error bits
- * (EB_ERR_IMU_MISSING, EB_ERR_I2C_FAILURE, EB_ERR_MAG_MISSING). */
+/* What a sensor read found. */
+enum ImuRead {
+    IMU_READ_OK,
+    IMU_READ_FAILED, /* the transfer failed (NACK, timeout) */
+    IMU_READ_RESET, /* the MPU answered with its reset configuration: it lost power */
+};
+
+/* Identify and configure the IMU (and the AK8963 if present), after freeing and
+ * starting the bus; returns error bits (EB_ERR_IMU_MISSING, EB_ERR_I2C_FAILURE,
+ * EB_ERR_MAG_MISSING). */
 uint16_t imu_init(Imu &imu, uint16_t rate_hz);
 /* The digital low-pass filter for a sample rate (eb_dlpf_for_rate). */
 bool imu_set_rate(uint16_t rate_hz);
-/* Burst-read accelerometer and gyroscope counts. */
-bool imu_read(int16_t acc[3], int16_t gyr[3]);
-/* Read the AK8963 (ST1..ST2); a new measurement replaces imu.mag. */
+/* Burst-read accelerometer and gyroscope counts, checked against a configuration
+ * register read in the same burst. */
+ImuRead imu_read(int16_t acc[3], int16_t gyr[3]);
+/* Read the AK8963 (ST1..ST2) if its next measurement is due; a new measurement
+ * replaces imu.mag. A failed read makes the held one invalid. */
 bool imu_read_mag(Imu &imu);
+/* Whether imu.mag is a valid recent measurement (the RAW frame's mag_valid). */
+bool imu_mag_valid(const Imu &imu);
 
 #endif

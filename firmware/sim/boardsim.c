@@ -3,7 +3,8 @@
  *
  *   boardsim ELF [--pty LINK] [--motion CSV] [--interp linear|hold]
  *                [--flex-mv MV] [--no-imu] [--seconds S] [--speed X]
- *                [--json] [--verbose]
+ *                [--json] [--verbose] [--imu-startup-ms MS] [--reset-at S]
+ *                [--imu-glitch-at S] [--hang-at S]
  *
  * The board (simavr 1.6, 16 MHz): a virtual MPU-9250 + AK8963 on the TWI
  * bus (imu.c), a flex voltage on ADC0 with AVCC = AREF = 5 V, UART0 bridged
@@ -37,6 +38,7 @@
 
 #include "eb_protocol.h"
 #include "frames.h"
+#include "i2cbus.h"
 #include "imu.h"
 #include "motion.h"
 #include "phases.h"
@@ -51,6 +53,11 @@ DEFINE_FIFO(uint8_t, uart_pty_fifo); /* accessors of the pty part's byte queues 
 #define PTY_FIFO_HIGH 384          /* bytes queued to the pty: wait for the host */
 #define MAX_SECONDS 1e6            /* --seconds: 11.6 simulated days (far more overflows the cycle count) */
 #define MIN_SPEED 1e-3             /* --speed above 0: a simulated ms in at most 1 s of wall time */
+/* Simulated time 0 is the AVR's first instruction; the supply came up earlier. The Uno's
+ * (and Metro Mini's) low fuse 0xFF selects the full-swing crystal with SUT = 11: reset
+ * is held 16K CK + 14 CK + 65 ms after power-on (DS40002061, "Start-up Times for the
+ * Full Swing Crystal Oscillator Clock Selection"), so the IMU was powered 65 ms before. */
+#define POWER_ON_S (-0.065)
 
 /* ---------------------------------------------------------------- options */
 
@@ -65,6 +72,10 @@ typedef struct options {
 	double speed;     /* simulated seconds per wall second; 0: as fast as possible */
 	int json;
 	int verbose;
+	double imu_startup_ms; /* the MPU's start-up time after power-on */
+	double reset_at;  /* > 0: reset the AVR at the first MPU read byte from then on */
+	double glitch_at; /* > 0: the IMU's supply drops out and comes back then */
+	double hang_at;   /* > 0: the CPU is sent into an endless loop then */
 } options_t;
 
 static void usage(FILE *f)
@@ -86,7 +97,14 @@ static void usage(FILE *f)
 		"  --speed X       simulated seconds per wall second, 0 or at least 0.001\n"
 		"                  (default 1 with --pty, else 0 = as fast as possible)\n"
 		"  --json          print a JSON report on stdout at the end\n"
-		"  --verbose       show simavr's own messages\n");
+		"  --verbose       show simavr's own messages\n"
+		"faults (firmware/sim/README.md):\n"
+		"  --imu-startup-ms MS  the MPU answers MS ms after power-on, 0..1000 (default 100,\n"
+		"                  the data sheet's maximum)\n"
+		"  --reset-at S    reset the AVR (as a host opening the port does) in the first MPU\n"
+		"                  read from S seconds on: the MPU holds SDA low\n"
+		"  --imu-glitch-at S  the IMU's supply drops out at S: registers to reset values\n"
+		"  --hang-at S     the CPU falls into an endless loop at S (only a watchdog gets out)\n");
 }
 
 static int parse_double(const char *s, double *out)
@@ -108,6 +126,16 @@ static void die_usage(const char *fmt, const char *arg)
 	exit(2);
 }
 
+/* A fault's time: simulated seconds above 0 and up to MAX_SECONDS. */
+static void parse_fault_time(const char *name, const char *arg, double *out)
+{
+	if (parse_double(arg, out) < 0 || *out <= 0 || *out > MAX_SECONDS) {
+		fprintf(stderr, "boardsim: %s takes a time in seconds above 0 and up to 1e6, not '%s' "
+			"(boardsim --help shows the options)\n", name, arg);
+		exit(2);
+	}
+}
+
 static void parse_options(int argc, char **argv, options_t *o)
 {
 	static const struct option longopts[] = {
@@ -121,11 +149,16 @@ static void parse_options(int argc, char **argv, options_t *o)
 		{ "json", no_argument, 0, 'j' },
 		{ "verbose", no_argument, 0, 'v' },
 		{ "help", no_argument, 0, 'h' },
+		{ "imu-startup-ms", required_argument, 0, 'u' },
+		{ "reset-at", required_argument, 0, 'r' },
+		{ "imu-glitch-at", required_argument, 0, 'g' },
+		{ "hang-at", required_argument, 0, 'H' },
 		{ 0, 0, 0, 0 },
 	};
 	memset(o, 0, sizeof(*o));
 	o->flex_mv = -1.0;
 	o->speed = -1.0;
+	o->imu_startup_ms = IMU_STARTUP_MAX_S * 1000.0;
 	int c;
 	while ((c = getopt_long(argc, argv, "h", longopts, NULL)) != -1) {
 		switch (c) {
@@ -159,6 +192,14 @@ static void parse_options(int argc, char **argv, options_t *o)
 				die_usage("--speed takes 0 (as fast as possible) or a number >= 0.001, not '%s'",
 					  optarg);
 			break;
+		case 'u':
+			if (parse_double(optarg, &o->imu_startup_ms) < 0 || o->imu_startup_ms < 0 ||
+			    o->imu_startup_ms > 1000)
+				die_usage("--imu-startup-ms takes milliseconds 0..1000, not '%s'", optarg);
+			break;
+		case 'r': parse_fault_time("--reset-at", optarg, &o->reset_at); break;
+		case 'g': parse_fault_time("--imu-glitch-at", optarg, &o->glitch_at); break;
+		case 'H': parse_fault_time("--hang-at", optarg, &o->hang_at); break;
 		default: usage(stderr); exit(2);
 		}
 	}
@@ -184,11 +225,15 @@ typedef struct board {
 	int has_pty;
 	/* I2C */
 	avr_irq_t *twi_in;
+	i2cbus_t bus;             /* timing, SDA held, bus clear, pull-ups */
 	int i2c_target;           /* 7-bit address being talked to, -1 none */
+	int i2c_reading;          /* the target was addressed for a read */
+	int reset_pending;        /* --reset-at: reset after this instruction */
+	uint64_t resets;          /* AVR resets after power-on (--reset-at, watchdog) */
 	int i2c_busy;
 	uint64_t i2c_busy_since;
 	uint64_t i2c_bus_cycles;  /* simulated bus time, cycles */
-	uint64_t i2c_transactions, i2c_nacks;
+	uint64_t i2c_transactions, i2c_nacks, i2c_bytes;
 	/* ADC */
 	avr_irq_t *adc0;
 } board_t;
@@ -209,7 +254,7 @@ static double sim_seconds(const board_t *b)
 
 static int i2c_present(board_t *b, uint8_t addr7)
 {
-	if (b->opt.no_imu)
+	if (b->opt.no_imu || i2cbus_blocked(&b->bus) || !imu_mpu_ready(&b->imu, sim_seconds(b)))
 		return 0;
 	if (addr7 == MPU_ADDR)
 		return 1;
@@ -232,6 +277,7 @@ static void i2c_address(board_t *b, uint8_t addr8)
 		return;
 	}
 	b->i2c_target = addr7;
+	b->i2c_reading = addr8 & 1;
 	imu_start(&b->imu, addr7, addr8 & 1, sim_seconds(b));
 	i2c_reply(b, TWI_COND_ACK, addr8, 1);
 }
@@ -248,6 +294,8 @@ static void i2c_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 	if (msg & (TWI_COND_START | TWI_COND_WRITE | TWI_COND_READ)) {
 		b->i2c_busy = 1; /* until the TWI sets its next status */
 		b->i2c_busy_since = b->avr->cycle;
+		b->i2c_bytes++;
+		i2cbus_byte(&b->bus);
 	}
 	if (msg & TWI_COND_STOP) {
 		b->i2c_target = -1;
@@ -263,6 +311,10 @@ static void i2c_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 		imu_write(&b->imu, (uint8_t)b->i2c_target, m.u.twi.data);
 		i2c_reply(b, TWI_COND_ACK, m.u.twi.addr, 1);
 	} else if (msg & TWI_COND_READ) {
+		if (b->opt.reset_at > 0 && sim_seconds(b) >= b->opt.reset_at && b->i2c_target == MPU_ADDR) {
+			b->opt.reset_at = 0; /* once */
+			b->reset_pending = 1;
+		}
 		uint8_t v = imu_read(&b->imu, (uint8_t)b->i2c_target);
 		i2c_reply(b, TWI_COND_READ, m.u.twi.addr, v);
 	}
@@ -280,10 +332,28 @@ static void i2c_status_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 	}
 }
 
+/* Every AVR reset: a slave in the middle of sending keeps SDA low (i2cbus.h). */
+static void on_avr_reset(void *param)
+{
+	board_t *b = param;
+	if (b->i2c_target == MPU_ADDR && b->i2c_reading)
+		i2cbus_hold_sda(&b->bus);
+	b->i2c_target = -1;
+	b->i2c_busy = 0;
+	b->resets++;
+	for (int i = 0; i < PHASE_COUNT; i++)
+		b->phases.p[i].high = 0; /* the reset cleared PORTB; an open phase is not counted */
+}
+
 static void attach_i2c(board_t *b)
 {
-	imu_init(&b->imu, &b->motion);
+	imu_init(&b->imu, &b->motion, b->opt.imu_startup_ms / 1000.0);
+	imu_power_on(&b->imu, POWER_ON_S);
 	b->i2c_target = -1;
+	if (i2cbus_attach(&b->bus, b->avr, on_avr_reset, b) < 0) {
+		fprintf(stderr, "boardsim: this simavr has no TWI or port C on the %s\n", MCU);
+		exit(1);
+	}
 	b->twi_in = avr_io_getirq(b->avr, AVR_IOCTL_TWI_GETIRQ(0), TWI_IRQ_INPUT);
 	avr_irq_t *out = avr_io_getirq(b->avr, AVR_IOCTL_TWI_GETIRQ(0), TWI_IRQ_OUTPUT);
 	avr_irq_t *status = avr_io_getirq(b->avr, AVR_IOCTL_TWI_GETIRQ(0), TWI_IRQ_STATUS);
@@ -527,6 +597,31 @@ static void pace(board_t *b, double wall_start)
 		sleep_for(wall_start + sim_seconds(b) / b->opt.speed - wall_now());
 }
 
+/* --hang-at: the CPU jumps to an `rjmp .-2` put in the last flash word (the
+ * bootloader's, unused here), as after a corrupted return address: the code
+ * never comes back, interrupts go on; only a watchdog reset gets out. */
+static void hang_cpu(avr_t *avr)
+{
+	avr->flash[avr->flashend - 1] = 0xFF; /* 0xCFFF, little endian: rjmp to itself */
+	avr->flash[avr->flashend] = 0xCF;
+	avr->pc = avr->flashend - 1;
+}
+
+/* The faults due by now (once a simulated ms), and the pull-up count. */
+static void step_faults(board_t *b)
+{
+	double now = sim_seconds(b);
+	i2cbus_tick_ms(&b->bus);
+	if (b->opt.glitch_at > 0 && now >= b->opt.glitch_at) {
+		b->opt.glitch_at = 0;
+		imu_power_on(&b->imu, now);
+	}
+	if (b->opt.hang_at > 0 && now >= b->opt.hang_at) {
+		b->opt.hang_at = 0;
+		hang_cpu(b->avr);
+	}
+}
+
 typedef enum { END_SECONDS, END_SIGNAL, END_DONE, END_CRASHED } end_t;
 
 static end_t run(board_t *b, double wall_start)
@@ -540,12 +635,17 @@ static end_t run(board_t *b, double wall_start)
 			return END_DONE;
 		if (state == cpu_Crashed)
 			return END_CRASHED;
+		if (b->reset_pending) {
+			b->reset_pending = 0;
+			avr_reset(avr);
+		}
 		if (avr->cycle >= limit)
 			return END_SECONDS;
 		if (avr->cycle >= next_pace) {
 			next_pace = avr->cycle + PACE_CYCLES;
 			if (stop_signal)
 				return END_SIGNAL;
+			step_faults(b);
 			pace(b, wall_start);
 		}
 	}
@@ -604,9 +704,14 @@ static void print_json(FILE *f, const board_t *b, end_t end, double wall)
 		(unsigned long long)u->by_type[EB_RAW], (unsigned long long)u->by_type[EB_FUSED],
 		(unsigned long long)u->by_type[EB_HELLO], (unsigned long long)u->by_type[EB_ACK],
 		(unsigned long long)other);
-	fprintf(f, "  \"i2c\": {\"transactions\": %llu, \"nacks\": %llu, \"bus_cycles\": %llu},\n",
+	fprintf(f, "  \"i2c\": {\"transactions\": %llu, \"nacks\": %llu, \"bytes\": %llu, "
+		"\"bus_cycles\": %llu, \"scl_hz\": %u, \"stuck\": %llu, \"cleared\": %llu, \"blocked\": %s, "
+		"\"pullup_ms\": %llu},\n",
 		(unsigned long long)b->i2c_transactions, (unsigned long long)b->i2c_nacks,
-		(unsigned long long)b->i2c_bus_cycles);
+		(unsigned long long)b->i2c_bytes, (unsigned long long)b->i2c_bus_cycles, F_CPU / i2cbus_scl_cycles(b->avr),
+		(unsigned long long)b->bus.stuck, (unsigned long long)b->bus.cleared,
+		i2cbus_blocked(&b->bus) ? "true" : "false", (unsigned long long)b->bus.pullup_ms);
+	fprintf(f, "  \"resets\": %llu,\n", (unsigned long long)b->resets);
 	fprintf(f, "  \"phases\": {\n");
 	for (int i = 0; i < PHASE_COUNT; i++)
 		json_phase(f, &b->phases.p[i], i == PHASE_COUNT - 1);

@@ -258,13 +258,25 @@ static uint8_t ak_read_reg(imu_t *imu, uint8_t reg)
 
 /* ------------------------------------------------------------ bus side */
 
-void imu_init(imu_t *imu, const motion_t *motion)
+void imu_power_on(imu_t *imu, double now)
 {
-	memset(imu, 0, sizeof(*imu));
-	imu->motion = motion;
+	imu->powered_at = now;
 	imu->mpu_sample_idx = -1;
 	mpu_reset(&imu->mpu);
 	ak_reset(&imu->ak);
+}
+
+void imu_init(imu_t *imu, const motion_t *motion, double startup_s)
+{
+	memset(imu, 0, sizeof(*imu));
+	imu->motion = motion;
+	imu->startup_s = startup_s;
+	imu_power_on(imu, 0.0);
+}
+
+int imu_mpu_ready(const imu_t *imu, double now)
+{
+	return now >= imu->powered_at + imu->startup_s;
 }
 
 int imu_ak_reachable(const imu_t *imu)

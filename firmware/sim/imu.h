@@ -16,6 +16,12 @@
  * bit 1), HXL..HZH 0x03..0x08 little endian, ST2 0x09 (HOFL bit 3, BITM
  * bit 4), CNTL1 0x0A (MODE 3:0, BIT 4), CNTL2 0x0B (SRST), ASA 0x10..0x12
  * = 128. It answers only while the MPU's bypass is on and its I2C master off.
+ *
+ * Power: after power-on (time 0, or a supply glitch, imu_power_on) every
+ * register of both chips is at its reset value and the MPU answers nothing
+ * until its start-up time for register read/write has passed (PS-MPU-9250A-01
+ * sec. 3.4.2 A.C. electrical characteristics: 11 ms typical, 100 ms
+ * maximum).
  */
 #ifndef BOARDSIM_IMU_H
 #define BOARDSIM_IMU_H
@@ -60,6 +66,7 @@ enum {
 #define MPU_WHOAMI_VALUE 0x71
 #define AK_WIA_VALUE 0x48
 #define IMU_TEMP_C 25.0 /* die temperature reported */
+#define IMU_STARTUP_MAX_S 0.100 /* start-up time for register read/write, maximum */
 
 /* One I2C target's register pointer protocol: first written byte = address. */
 typedef struct regdev {
@@ -81,9 +88,18 @@ typedef struct imu {
 	const motion_t *motion;
 	double now;          /* simulated time of the current transaction, s */
 	long mpu_sample_idx; /* index of the internal sample in the data registers */
+	double powered_at;   /* last power-on, s */
+	double startup_s;    /* start-up time for register read/write, s */
 } imu_t;
 
-void imu_init(imu_t *imu, const motion_t *motion);
+/* Powered on at time 0 with the given start-up time (s); imu_power_on moves it. */
+void imu_init(imu_t *imu, const motion_t *motion, double startup_s);
+
+/* The supply came back at `now` (a glitch): reset values, start-up again. */
+void imu_power_on(imu_t *imu, double now);
+
+/* Whether the MPU answers on the bus at `now` (its start-up time has passed). */
+int imu_mpu_ready(const imu_t *imu, double now);
 
 /* Whether the AK8963 answers on the bus now (bypass on, MPU master off). */
 int imu_ak_reachable(const imu_t *imu);

@@ -31,6 +31,7 @@ extern "C" {
 #define MPU_PWR_MGMT_2 0x6C /* 0: all axes on */
 #define MPU_WHO_AM_I 0x75
 #define MPU_BURST_LEN 14
+#define MPU_CHECKED_BURST_LEN 18 /* from INT_PIN_CFG: 0x37..0x3A, then the 14 data bytes */
 #define MPU_BYPASS_EN 0x02
 #define MPU_H_RESET 0x80
 #define MPU_CLKSEL_PLL 0x01 /* auto-select the gyro PLL when ready */
