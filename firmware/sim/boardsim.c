@@ -2,8 +2,8 @@
  * boardsim - run the EnergyBall firmware ELF on a simulated ATmega328P.
  *
  *   boardsim ELF [--pty LINK] [--motion CSV] [--interp linear|hold]
- *                [--flex-mv MV] [--no-imu] [--seconds S] [--speed X]
- *                [--json] [--verbose]
+ *                [--flex-mv MV] [--flex-swing LO,HI] [--no-imu] [--seed N]
+ *                [--no-noise] [--seconds S] [--speed X] [--json] [--verbose]
  *
  * The board (simavr 1.6, 16 MHz): a virtual MPU-9250 + AK8963 on the TWI
  * bus (imu.c), a flex voltage on ADC0 with AVCC = AREF = 5 V, UART0 bridged
@@ -14,6 +14,7 @@
  * See firmware/sim/README.md.
  */
 #define _GNU_SOURCE
+#include <ctype.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <getopt.h>
@@ -27,6 +28,7 @@
 #include <unistd.h>
 
 #include <avr_adc.h>
+#include <avr_eeprom.h>
 #include <avr_ioport.h>
 #include <avr_twi.h>
 #include <avr_uart.h>
@@ -35,6 +37,7 @@
 #include <sim_irq.h>
 #include <uart_pty.h>
 
+#include "eb_bias.h"
 #include "eb_protocol.h"
 #include "frames.h"
 #include "imu.h"
@@ -51,6 +54,8 @@ DEFINE_FIFO(uint8_t, uart_pty_fifo); /* accessors of the pty part's byte queues 
 #define PTY_FIFO_HIGH 384          /* bytes queued to the pty: wait for the host */
 #define MAX_SECONDS 1e6            /* --seconds: 11.6 simulated days (far more overflows the cycle count) */
 #define MIN_SPEED 1e-3             /* --speed above 0: a simulated ms in at most 1 s of wall time */
+#define TWBR_ADDR 0xB8             /* ATmega328P TWI bit rate register (data sheet sec. 22.9) */
+#define TWSR_ADDR 0xB9             /* TWPS in bits 1:0 */
 
 /* ---------------------------------------------------------------- options */
 
@@ -60,7 +65,10 @@ typedef struct options {
 	const char *motion;
 	motion_interp_t interp;
 	double flex_mv;   /* < 0: not given, the ADC reads 0 V */
+	double flex_lo_mv, flex_hi_mv; /* the op-amp's output swing */
 	int no_imu;
+	unsigned long long seed;
+	int no_noise;
 	double seconds;   /* <= 0: run until killed */
 	double speed;     /* simulated seconds per wall second; 0: as fast as possible */
 	int json;
@@ -71,8 +79,8 @@ static void usage(FILE *f)
 {
 	fprintf(f,
 		"usage: boardsim ELF [--pty LINK] [--motion CSV] [--interp linear|hold]\n"
-		"                [--flex-mv MV] [--no-imu] [--seconds S] [--speed X] [--json]\n"
-		"                [--verbose]\n"
+		"                [--flex-mv MV] [--flex-swing LO,HI] [--no-imu] [--seed N]\n"
+		"                [--no-noise] [--seconds S] [--speed X] [--json] [--verbose]\n"
 		"Runs the firmware ELF on a simulated ATmega328P at 16 MHz with a virtual\n"
 		"MPU-9250/AK8963 on I2C, a flex voltage on A0 and UART0 on a pty.\n"
 		"  --pty LINK      make LINK a symlink to the UART's pty (open it at 115200)\n"
@@ -80,7 +88,11 @@ static void usage(FILE *f)
 		"                  default: lying still, gravity on +z\n"
 		"  --interp MODE   linear (default) or hold, between CSV rows\n"
 		"  --flex-mv MV    voltage on A0 in millivolts, 0..5000 (default 0)\n"
+		"  --flex-swing LO,HI  the flex op-amp's output limits in millivolts (default\n"
+		"                  0,5000: rail to rail); A0 never reads outside them\n"
 		"  --no-imu        nothing answers on the I2C bus\n"
+		"  --seed N        seed of the sensors' noise and offsets (default 1)\n"
+		"  --no-noise      ideal sensors: no noise, zero-rate offset or start-up transient\n"
 		"  --seconds S     run S simulated seconds (at most 1e6), then exit (default:\n"
 		"                  until killed)\n"
 		"  --speed X       simulated seconds per wall second, 0 or at least 0.001\n"
@@ -100,6 +112,20 @@ static int parse_double(const char *s, double *out)
 	return 0;
 }
 
+/* "LO,HI" millivolts with 0 <= LO < HI <= VCC. */
+static int parse_swing(const char *s, double *lo, double *hi)
+{
+	char buf[64];
+	const char *comma = strchr(s, ',');
+	if (!comma || (size_t)(comma - s) >= sizeof(buf))
+		return -1;
+	memcpy(buf, s, (size_t)(comma - s));
+	buf[comma - s] = '\0';
+	if (parse_double(buf, lo) < 0 || parse_double(comma + 1, hi) < 0)
+		return -1;
+	return *lo >= 0 && *lo < *hi && *hi <= VCC_MV ? 0 : -1;
+}
+
 static void die_usage(const char *fmt, const char *arg)
 {
 	fprintf(stderr, "boardsim: ");
@@ -116,6 +142,9 @@ static void parse_options(int argc, char **argv, options_t *o)
 		{ "interp", required_argument, 0, 'i' },
 		{ "flex-mv", required_argument, 0, 'f' },
 		{ "no-imu", no_argument, 0, 'n' },
+		{ "flex-swing", required_argument, 0, 'w' },
+		{ "seed", required_argument, 0, 'r' },
+		{ "no-noise", no_argument, 0, 'q' },
 		{ "seconds", required_argument, 0, 's' },
 		{ "speed", required_argument, 0, 'x' },
 		{ "json", no_argument, 0, 'j' },
@@ -125,6 +154,8 @@ static void parse_options(int argc, char **argv, options_t *o)
 	};
 	memset(o, 0, sizeof(*o));
 	o->flex_mv = -1.0;
+	o->flex_hi_mv = VCC_MV;
+	o->seed = 1;
 	o->speed = -1.0;
 	int c;
 	while ((c = getopt_long(argc, argv, "h", longopts, NULL)) != -1) {
@@ -132,6 +163,20 @@ static void parse_options(int argc, char **argv, options_t *o)
 		case 'p': o->link = optarg; break;
 		case 'm': o->motion = optarg; break;
 		case 'n': o->no_imu = 1; break;
+		case 'q': o->no_noise = 1; break;
+		case 'w':
+			if (parse_swing(optarg, &o->flex_lo_mv, &o->flex_hi_mv) < 0)
+				die_usage("--flex-swing takes LO,HI millivolts with 0 <= LO < HI <= 5000, not '%s'",
+					  optarg);
+			break;
+		case 'r': {
+			char *end;
+			errno = 0;
+			o->seed = strtoull(optarg, &end, 10);
+			if (!isdigit((unsigned char)*optarg) || *end != '\0' || errno)
+				die_usage("--seed takes a whole number 0..18446744073709551615, not '%s'", optarg);
+			break;
+		}
 		case 'j': o->json = 1; break;
 		case 'v': o->verbose = 1; break;
 		case 'h': usage(stdout); exit(0);
@@ -188,6 +233,8 @@ typedef struct board {
 	int i2c_busy;
 	uint64_t i2c_busy_since;
 	uint64_t i2c_bus_cycles;  /* simulated bus time, cycles */
+	uint64_t i2c_bytes;       /* address and data bytes on the bus */
+	uint64_t i2c_real_bus_cycles; /* the same transfers at the bus clock TWBR/TWPS set */
 	uint64_t i2c_transactions, i2c_nacks;
 	/* ADC */
 	avr_irq_t *adc0;
@@ -216,6 +263,19 @@ static int i2c_present(board_t *b, uint8_t addr7)
 	return addr7 == AK_ADDR && imu_ak_reachable(&b->imu);
 }
 
+/*
+ * simavr 1.6 times every byte at 9 us whatever the bit rate; count what the real bus
+ * takes instead: SCL = F_CPU / (16 + 2 TWBR 4^TWPS) (ATmega328P data sheet sec. 22.5.2),
+ * 9 SCL periods per byte (8 bits and the acknowledge, NXP UM10204 sec. 3.1.6) and
+ * one per START, repeated START or STOP condition.
+ */
+static void i2c_real_bits(board_t *b, unsigned bits)
+{
+	const uint8_t *io = b->avr->data;
+	uint64_t scl = 16u + 2u * io[TWBR_ADDR] * (1u << (2 * (io[TWSR_ADDR] & 3)));
+	b->i2c_real_bus_cycles += bits * scl;
+}
+
 static void i2c_reply(board_t *b, uint8_t msg, uint8_t addr8, uint8_t data)
 {
 	avr_raise_irq(b->twi_in, avr_twi_irq_msg(msg, addr8, data));
@@ -226,6 +286,8 @@ static void i2c_address(board_t *b, uint8_t addr8)
 {
 	uint8_t addr7 = addr8 >> 1;
 	b->i2c_transactions++;
+	b->i2c_bytes++;
+	i2c_real_bits(b, 1 + 9);
 	if (!i2c_present(b, addr7)) {
 		b->i2c_target = -1;
 		b->i2c_nacks++; /* nobody answers: the master sees a NACK */
@@ -251,6 +313,7 @@ static void i2c_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 	}
 	if (msg & TWI_COND_STOP) {
 		b->i2c_target = -1;
+		i2c_real_bits(b, 1);
 		return;
 	}
 	if (msg & TWI_COND_START) {
@@ -259,6 +322,10 @@ static void i2c_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 	}
 	if (b->i2c_target < 0)
 		return;
+	if (msg & (TWI_COND_WRITE | TWI_COND_READ)) {
+		b->i2c_bytes++;
+		i2c_real_bits(b, 9);
+	}
 	if (msg & TWI_COND_WRITE) {
 		imu_write(&b->imu, (uint8_t)b->i2c_target, m.u.twi.data);
 		i2c_reply(b, TWI_COND_ACK, m.u.twi.addr, 1);
@@ -282,7 +349,7 @@ static void i2c_status_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 
 static void attach_i2c(board_t *b)
 {
-	imu_init(&b->imu, &b->motion);
+	imu_init(&b->imu, &b->motion, b->opt.seed, !b->opt.no_noise);
 	b->i2c_target = -1;
 	b->twi_in = avr_io_getirq(b->avr, AVR_IOCTL_TWI_GETIRQ(0), TWI_IRQ_INPUT);
 	avr_irq_t *out = avr_io_getirq(b->avr, AVR_IOCTL_TWI_GETIRQ(0), TWI_IRQ_OUTPUT);
@@ -297,13 +364,14 @@ static void attach_i2c(board_t *b)
 
 /* ---------------------------------------------------------------- ADC */
 
+/* The flex op-amp's output now, within its swing (--flex-swing), millivolts. */
 static uint32_t flex_now(board_t *b)
 {
 	truth_t tr;
 	motion_at(&b->motion, sim_seconds(b), &tr);
-	if (tr.flex_mv >= 0)
-		return (uint32_t)lround(tr.flex_mv > VCC_MV ? VCC_MV : tr.flex_mv);
-	return b->opt.flex_mv >= 0 ? (uint32_t)lround(b->opt.flex_mv) : 0;
+	double mv = tr.flex_mv >= 0 ? tr.flex_mv : b->opt.flex_mv >= 0 ? b->opt.flex_mv : 0.0;
+	mv = fmin(fmax(mv, b->opt.flex_lo_mv), b->opt.flex_hi_mv);
+	return (uint32_t)lround(mv);
 }
 
 /* A conversion starts: put the present flex voltage on ADC0 (millivolts). */
@@ -331,7 +399,8 @@ static void pin_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 	board_t *b = param;
 	int pin = (int)irq->irq; /* IOPORT_IRQ_PIN0 + n */
 	if (pin >= 0 && pin < PHASE_COUNT)
-		phases_edge(&b->phases.p[pin], (int)value, b->avr->cycle, b->i2c_bus_cycles);
+		phases_edge(&b->phases.p[pin], (int)value, b->avr->cycle, b->i2c_bus_cycles,
+			    b->i2c_real_bus_cycles);
 }
 
 static void attach_pins(board_t *b)
@@ -557,11 +626,14 @@ static void json_phase(FILE *f, const phase_t *p, int last)
 {
 	double mean = p->count ? (double)p->total / p->count : 0.0;
 	double own = p->count ? (double)(p->total - p->bus_total) / p->count : 0.0;
+	double real = p->count ? (double)(p->total - p->bus_total + p->real_bus_total) / p->count : 0.0;
 	fprintf(f, "    \"%s\": {\"pin\": \"%s\", \"count\": %llu, \"total_cycles\": %llu, "
 		"\"mean_cycles\": %.1f, \"max_cycles\": %llu, \"i2c_bus_cycles\": %llu, "
-		"\"mean_cycles_without_i2c_bus\": %.1f}%s\n",
+		"\"mean_cycles_without_i2c_bus\": %.1f, \"real_i2c_bus_cycles\": %llu, "
+		"\"mean_cycles_real_bus\": %.1f}%s\n",
 		p->name, p->pin, (unsigned long long)p->count, (unsigned long long)p->total, mean,
-		(unsigned long long)p->max, (unsigned long long)p->bus_total, own, last ? "" : ",");
+		(unsigned long long)p->max, (unsigned long long)p->bus_total, own,
+		(unsigned long long)p->real_bus_total, real, last ? "" : ",");
 }
 
 /* A JSON string literal of s (quotes, backslashes and control characters escaped). */
@@ -580,15 +652,35 @@ static void json_string(FILE *f, const char *s)
 	fputc('"', f);
 }
 
+/* The virtual IMU's seed and offsets, and the gyroscope bias the firmware saved in
+ * EEPROM (its own record format, eb_bias.h), or null. */
+static void json_imu(FILE *f, const board_t *b)
+{
+	const noise_t *n = &b->imu.noise;
+	fprintf(f, "  \"imu\": {\"seed\": %llu, \"noise\": %s, \"gyro_zro_dps\": [%.6f, %.6f, %.6f]},\n",
+		(unsigned long long)n->seed, n->on ? "true" : "false", n->gyr_zro[0] * 180.0 / M_PI,
+		n->gyr_zro[1] * 180.0 / M_PI, n->gyr_zro[2] * 180.0 / M_PI);
+	uint8_t rec[EB_BIAS_RECORD_SIZE];
+	memset(rec, 0xFF, sizeof(rec)); /* a blank EEPROM if the copy fails */
+	avr_eeprom_desc_t d = { rec, 0, sizeof(rec) };
+	avr_ioctl(b->avr, AVR_IOCTL_EEPROM_GET, &d); /* copies; simavr 1.6 returns -1 even then */
+	int16_t bias[3];
+	if (eb_bias_unpack(rec, bias))
+		fprintf(f, "  \"eeprom_bias\": [%d, %d, %d],\n", bias[0], bias[1], bias[2]);
+	else
+		fprintf(f, "  \"eeprom_bias\": null,\n");
+}
+
 static void print_json(FILE *f, const board_t *b, end_t end, double wall)
 {
 	static const char *const ends[] = { "seconds", "signal", "done", "crashed" };
 	const frame_counter_t *u = &b->uart;
 	uint64_t samples = u->by_type[EB_RAW] + u->by_type[EB_FUSED];
-	uint64_t total = 0, bus = 0;
+	uint64_t total = 0, bus = 0, real_bus = 0;
 	for (int i = 0; i < PHASE_COUNT; i++) {
 		total += b->phases.p[i].total;
 		bus += b->phases.p[i].bus_total;
+		real_bus += b->phases.p[i].real_bus_total;
 	}
 	uint64_t other = u->frames - samples - u->by_type[EB_HELLO] - u->by_type[EB_ACK];
 	fprintf(f, "{\n  \"elf\": ");
@@ -598,21 +690,26 @@ static void print_json(FILE *f, const board_t *b, end_t end, double wall)
 		"  \"wall_s\": %.3f,\n", sim_seconds(b), (unsigned long long)b->avr->cycle, F_CPU, wall);
 	fprintf(f, "  \"uart\": {\"bytes\": %llu, \"frames\": %llu, \"crc_errors\": %llu, "
 		"\"bytes_lost\": %llu, \"raw\": %llu, \"fused\": %llu, \"hello\": %llu, "
-		"\"ack\": %llu, \"other\": %llu},\n",
+		"\"ack\": %llu, \"other\": %llu, \"hello_errors\": %u},\n",
 		(unsigned long long)u->bytes, (unsigned long long)u->frames,
 		(unsigned long long)u->crc_errors, (unsigned long long)b->bytes_lost,
 		(unsigned long long)u->by_type[EB_RAW], (unsigned long long)u->by_type[EB_FUSED],
 		(unsigned long long)u->by_type[EB_HELLO], (unsigned long long)u->by_type[EB_ACK],
-		(unsigned long long)other);
-	fprintf(f, "  \"i2c\": {\"transactions\": %llu, \"nacks\": %llu, \"bus_cycles\": %llu},\n",
+		(unsigned long long)other, (unsigned)u->hello_errors);
+	fprintf(f, "  \"i2c\": {\"transactions\": %llu, \"nacks\": %llu, \"bus_cycles\": %llu, "
+		"\"bytes\": %llu, \"real_bus_cycles\": %llu},\n",
 		(unsigned long long)b->i2c_transactions, (unsigned long long)b->i2c_nacks,
-		(unsigned long long)b->i2c_bus_cycles);
+		(unsigned long long)b->i2c_bus_cycles, (unsigned long long)b->i2c_bytes,
+		(unsigned long long)b->i2c_real_bus_cycles);
+	json_imu(f, b);
 	fprintf(f, "  \"phases\": {\n");
 	for (int i = 0; i < PHASE_COUNT; i++)
 		json_phase(f, &b->phases.p[i], i == PHASE_COUNT - 1);
 	fprintf(f, "  },\n  \"samples\": %llu,\n", (unsigned long long)samples);
 	fprintf(f, "  \"cycles_per_sample\": %.1f,\n  \"cycles_per_sample_without_i2c_bus\": %.1f,\n",
 		samples ? (double)total / samples : 0.0, samples ? (double)(total - bus) / samples : 0.0);
+	fprintf(f, "  \"cycles_per_sample_real_bus\": %.1f,\n",
+		samples ? (double)(total - bus + real_bus) / samples : 0.0);
 	fprintf(f, "  \"cpu_load\": %.4f\n}\n", b->avr->cycle ? (double)total / b->avr->cycle : 0.0);
 	fflush(f);
 }

@@ -23,6 +23,7 @@
 #include <stdint.h>
 
 #include "motion.h"
+#include "noise.h"
 
 #define MPU_ADDR 0x68
 #define AK_ADDR 0x0C
@@ -79,11 +80,13 @@ typedef struct imu {
 	regdev_t mpu;
 	ak8963_t ak;
 	const motion_t *motion;
+	noise_t noise;       /* the sensors' errors (noise.h) */
 	double now;          /* simulated time of the current transaction, s */
 	long mpu_sample_idx; /* index of the internal sample in the data registers */
 } imu_t;
 
-void imu_init(imu_t *imu, const motion_t *motion);
+/* seed and noise_on: the sensors' errors (noise.h); noise_on 0 is an ideal sensor. */
+void imu_init(imu_t *imu, const motion_t *motion, uint64_t seed, int noise_on);
 
 /* Whether the AK8963 answers on the bus now (bypass on, MPU master off). */
 int imu_ak_reachable(const imu_t *imu);

@@ -16,7 +16,7 @@ void phases_init(phases_t *ph)
 	}
 }
 
-void phases_edge(phase_t *p, int level, uint64_t now, uint64_t bus_cycles)
+void phases_edge(phase_t *p, int level, uint64_t now, uint64_t bus_cycles, uint64_t real_bus_cycles)
 {
 	level = level != 0;
 	if (level == p->high)
@@ -25,12 +25,14 @@ void phases_edge(phase_t *p, int level, uint64_t now, uint64_t bus_cycles)
 	if (level) {
 		p->since = now;
 		p->bus_at_rise = bus_cycles;
+		p->real_bus_at_rise = real_bus_cycles;
 		return;
 	}
 	uint64_t d = now - p->since;
 	p->count++;
 	p->total += d;
 	p->bus_total += bus_cycles - p->bus_at_rise;
+	p->real_bus_total += real_bus_cycles - p->real_bus_at_rise;
 	if (d > p->max)
 		p->max = d;
 }

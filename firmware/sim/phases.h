@@ -24,6 +24,8 @@ typedef struct phase {
 	uint64_t max;
 	uint64_t bus_total;   /* of which simulated I2C bus time */
 	uint64_t bus_at_rise; /* bus-time counter at the rising edge */
+	uint64_t real_bus_total;   /* the same bytes at the real bus clock (TWBR) */
+	uint64_t real_bus_at_rise;
 } phase_t;
 
 typedef struct phases {
@@ -32,7 +34,8 @@ typedef struct phases {
 
 void phases_init(phases_t *ph);
 
-/* A pin edge at cycle `now`; bus_cycles is the running I2C bus-time counter. */
-void phases_edge(phase_t *p, int level, uint64_t now, uint64_t bus_cycles);
+/* A pin edge at cycle `now`; bus_cycles is the running I2C bus-time counter (simavr's),
+ * real_bus_cycles the same transfers timed at the bus clock the firmware set. */
+void phases_edge(phase_t *p, int level, uint64_t now, uint64_t bus_cycles, uint64_t real_bus_cycles);
 
 #endif

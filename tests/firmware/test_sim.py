@@ -159,7 +159,7 @@ def stream(boardsim: Path, elf: Path, motion_csv: Path, tmp_path_factory: pytest
     """About 2.8 simulated seconds read through tracker.link.Link, then an IDENTIFY."""
     tmp = tmp_path_factory.mktemp("stream")
     with running_board(boardsim, elf, tmp, "--motion", str(motion_csv), "--interp", "hold",
-                       "--flex-mv", str(FLEX_MV)) as board:
+                       "--flex-mv", str(FLEX_MV), "--no-noise") as board:
         with Link(LinkSettings(port=str(board.link), reconnect=False, rate_hz=RATE_HZ)) as link:
             hello = link.hello
             samples: list[P.RawSample] = []
@@ -276,7 +276,7 @@ def test_linear_motion_is_interpolated_in_simulated_time(boardsim, elf, tmp_path
     """A ramp of gz, 0 -> 3 rad/s over 3 s: the counts follow it at the device clock's pace."""
     csv = tmp_path / "ramp.csv"
     csv.write_text("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.81\n3,0,0,3,0,0,9.81\n")
-    with running_board(boardsim, elf, tmp_path, "--motion", str(csv)) as board:
+    with running_board(boardsim, elf, tmp_path, "--motion", str(csv), "--no-noise") as board:
         with Link(LinkSettings(port=str(board.link), reconnect=False)) as link:
             samples = list(link.samples(1.5))
         board.report()
@@ -291,7 +291,7 @@ def test_linear_motion_is_interpolated_in_simulated_time(boardsim, elf, tmp_path
 
 
 def test_armtracker_monitor_reads_the_simulated_board(boardsim, elf, tmp_path):
-    with running_board(boardsim, elf, tmp_path, "--flex-mv", str(FLEX_MV)) as board:
+    with running_board(boardsim, elf, tmp_path, "--flex-mv", str(FLEX_MV), "--no-noise") as board:
         r = subprocess.run([sys.executable, "-m", "tracker", "monitor", "--port", str(board.link),
                             "--seconds", "1.5", "--json"], capture_output=True, text=True,
                            timeout=60, cwd=ROOT, stdin=subprocess.DEVNULL)
