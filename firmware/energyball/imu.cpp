@@ -5,9 +5,10 @@
 #include <Arduino.h>
 #include <Wire.h>
 
+#include "src/eb_budget.h"
 #include "src/eb_protocol.h"
 
-static const uint32_t I2C_CLOCK_HZ = 400000; /* fast mode, product specification sec. 7.3 */
+static const uint32_t I2C_CLOCK_HZ = EB_I2C_CLOCK_HZ; /* the rate limits follow it (eb_budget.h) */
 static const uint32_t I2C_TIMEOUT_US = 2000; /* a 14-byte burst takes about 0.4 ms */
 
 void imu_bus_begin()
