@@ -80,6 +80,9 @@ def open_source(args: argparse.Namespace, tap: Callable[[bytes], None] | None = 
                 motion: MotionSource | None = None) -> Iterator[tuple[Link, VirtualBoard | None]]:
     """Open the board the options name (a virtual one for ``--virtual``, moved by ``motion``, default
     the simulated arm); ``tap`` sees every byte read. Yields the link and the virtual board, if any."""
+    mode = P.Mode[getattr(args, "mode", "raw").upper()]
+    if (why := P.board_rate_error(args.rate, mode)) is not None:
+        raise UsageError(f"--rate {why}")
     with contextlib.ExitStack() as stack:
         board = None
         if args.virtual:
@@ -90,7 +93,6 @@ def open_source(args: argparse.Namespace, tap: Callable[[bytes], None] | None = 
             port = args.port
         else:
             port = _autodetect()
-        mode = P.Mode[getattr(args, "mode", "raw").upper()]
         settings = LinkSettings(port, baud=args.baud, rate_hz=args.rate, mode=mode)
         link = Link(settings)
         link.tap = tap

@@ -334,11 +334,33 @@ class Link:
         return None, received
 
     def _configure(self, session: _Session) -> None:
+        """Mode and rate in an order the board takes (its limit depends on the mode,
+        PROTOCOL.md sec. 6: the rate first if the present mode allows it), then START."""
         s = self.settings
-        for c in (P.Command(P.FrameType.SET_MODE, int(s.mode)),
-                  P.Command(P.FrameType.SET_RATE, s.rate_hz),
-                  P.Command(P.FrameType.START)):
+        mode = P.Command(P.FrameType.SET_MODE, int(s.mode))
+        rate = P.Command(P.FrameType.SET_RATE, s.rate_hz)
+        rate_first = session.hello is not None and P.board_rate_error(s.rate_hz, session.hello.mode) is None
+        for c in ((rate, mode) if rate_first else (mode, rate)):
             self._send(session, c)
+        self._check_acks(session)
+        self._send(session, P.Command(P.FrameType.START))
+
+    def _check_acks(self, session: _Session, timeout_s: float = 0.5) -> None:
+        """Wait up to ``timeout_s`` for the ACKs of SET_MODE and SET_RATE; a refusal is a
+        :class:`LinkError` that says why (a board that does not answer is taken as it is)."""
+        s = self.settings
+        waiting = {P.FrameType.SET_MODE, P.FrameType.SET_RATE}
+        deadline = time.monotonic() + timeout_s
+        while waiting and time.monotonic() < deadline:
+            data = session.port.read(max(1, session.port.in_waiting))
+            for p in session.decoder.feed(data):
+                if not isinstance(p, P.Ack) or p.command not in waiting:
+                    continue
+                waiting.discard(p.command)
+                if p.status != P.AckStatus.OK:
+                    why = P.board_rate_error(s.rate_hz, s.mode) or "this board's limits differ from this host's"
+                    raise LinkError(f"the board refused {P.FrameType(p.command).name} "
+                                    f"({s.rate_hz} Hz, {s.mode.name.lower()} mode): {why}")
 
     @staticmethod
     def _send(session: _Session, c: P.Command) -> None:

@@ -75,6 +75,23 @@ class BoardError(IntFlag):
     OVERRUN = 0x10  # the sample loop missed its deadline
 
 
+# The highest rate the EnergyBall board sustains in each mode: 90% of its CPU (the I2C
+# bus at 400 kHz, the on-board filter) and of its UART at 115200 baud, as the firmware
+# computes it (firmware/energyball/src/eb_budget.h; tests/firmware checks the two agree).
+# The board answers SET_RATE above it, or SET_MODE to a mode whose limit is below the
+# present rate, with BAD_ARGUMENT (PROTOCOL.md sec. 6).
+BOARD_MAX_RATE_HZ = {Mode.RAW: 330, Mode.FUSED: 208}
+
+
+def board_rate_error(rate_hz: int, mode: Mode) -> str | None:
+    """Why the board refuses ``rate_hz`` in ``mode``, in a sentence; None if it takes it."""
+    top = BOARD_MAX_RATE_HZ[mode]
+    if MIN_RATE_HZ <= rate_hz <= top:
+        return None
+    return (f"{rate_hz} Hz is not a rate the board sustains in {mode.name.lower()} mode: "
+            f"it takes {MIN_RATE_HZ}..{top} Hz (firmware/README.md, rate limits)")
+
+
 class AckStatus(IntEnum):
     """Board's answer to a command."""
 

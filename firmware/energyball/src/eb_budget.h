@@ -31,9 +31,11 @@ extern "C" {
 #define EB_I2C_CLOCK_HZ 400000ul /* fast mode (MPU-9250 product specification sec. 3.6: up to 400 kHz) */
 #define EB_BAUD 115200ul /* the binary protocol's (PROTOCOL.md sec. 1) */
 
-#define EB_READ_CYCLES 12600u
+/* Measured at 200 Hz (README.md, "Rate limits"): read 12337 (RAW) and 12723 (FUSED),
+ * compute + send 3711 + 3771 (RAW) and 39349 + 2571 (FUSED), with some margin. */
+#define EB_READ_CYCLES 13000u
 #define EB_RAW_CYCLES 7700u
-#define EB_FUSED_CYCLES 26000u
+#define EB_FUSED_CYCLES 42500u
 /* One MPU-9250 burst (START, address, register, repeated START, address, 14 bytes,
  * STOP) and one AK8963 read (the same with 8 bytes): 9 SCL periods a byte (8 bits and
  * the acknowledge, NXP UM10204 sec. 3.1.6) and one per START or STOP condition,
