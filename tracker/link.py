@@ -282,6 +282,9 @@ class Link:
                 port.close()
                 raise LinkError(f"{self.settings.port} stopped answering during the handshake: {e}") \
                     from None
+            except LinkError:  # the board refused the settings
+                port.close()
+                raise
             if session:
                 return session
             port.close()

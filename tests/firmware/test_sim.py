@@ -21,12 +21,13 @@ import time
 from pathlib import Path
 from typing import Iterator
 
+import numpy as np
 import pytest
 import serial
 
 from tracker import protocol as P
 from tracker.board import FIRMWARE_VERSION, acc_lsb, counts, gyr_lsb
-from tracker.link import Link, LinkSettings
+from tracker.link import Link, LinkError, LinkSettings
 
 from .firmware_lib import require, require_tool
 
@@ -400,3 +401,94 @@ def test_bad_motion_csv_is_a_clear_error(boardsim, tmp_path, content, words):
 def test_bad_option_is_a_clear_error(boardsim, tmp_path, args, words):
     # options are checked before the firmware is loaded
     _boardsim_fails(boardsim, str(tmp_path / "unused.elf"), *args, words=words)
+
+
+# ---------------------------------------------------------------- issue 15: the board's computations
+
+
+BUDGET_H = FIRMWARE / "energyball" / "src" / "eb_budget.h"
+
+
+def budget(name: str) -> int:
+    """A cycle figure the firmware's rate limits assume (eb_budget.h)."""
+    import re
+    return int(re.search(rf"#define {name} (\d+)u", BUDGET_H.read_text()).group(1))
+
+
+def test_boot_bias_is_taken_on_every_noisy_chip_and_is_its_zero_rate_offset(boardsim, elf):
+    """Twelve chips (seeds) with the data sheet's noise, zero-rate offsets and start-up
+    transient, lying still: each saves a bias, and it is the chip's offset in counts."""
+    for seed in range(1, 13):
+        r = run_to_end(boardsim, elf, "--seconds", "0.6", "--seed", str(seed))
+        assert r["eeprom_bias"] is not None, f"seed {seed}: a still board was judged moving"
+        want = counts(np.radians(r["imu"]["gyro_zro_dps"]), gyr_lsb(2000)).tolist()
+        assert all(abs(a - b) <= 1 for a, b in zip(r["eeprom_bias"], want)), (seed, r["eeprom_bias"], want)
+
+
+def test_a_board_moved_at_boot_saves_no_bias(boardsim, elf, tmp_path):
+    """A hand's wobble at boot, +-0.2 rad/s (11 deg/s) at 2 Hz: no bias is taken."""
+    csv = tmp_path / "wobble.csv"
+    rows = ["t,gx,gy,gz,ax,ay,az"]
+    rows += [f"{t / 100},0.2,{0.2 * np.sin(2 * np.pi * 2 * t / 100):.4f},0,0,0,9.81" for t in range(100)]
+    csv.write_text("\n".join(rows) + "\n")
+    r = run_to_end(boardsim, elf, "--seconds", "0.6", "--motion", str(csv))
+    assert r["eeprom_bias"] is None
+
+
+def test_unplugged_flex_on_an_op_amp_short_of_the_rail_is_flagged(boardsim, elf):
+    """An op-amp whose output stops 20 mV above ground (4 counts) with the sensor unplugged."""
+    r = run_to_end(boardsim, elf, "--seconds", "11.5", "--flex-mv", "0", "--flex-swing", "20,4900",
+                   "--no-noise")
+    assert r["uart"]["hello_errors"] & P.BoardError.FLEX_RAIL
+
+
+def test_a_full_bend_past_rf_is_not_a_flex_fault(boardsim, elf, tmp_path):
+    """Straight (1.9 V), then 3 s bent past Rf = 51 kOhm (the output at the 0 V rail,
+    tracker.flex.FlexCircuit), then straight again: no FLEX_RAIL."""
+    csv = tmp_path / "bend.csv"
+    csv.write_text("t,gx,gy,gz,ax,ay,az,flex_mv\n0,0,0,0,0,0,9.81,1900\n2,0,0,0,0,0,9.81,0\n"
+                   "5,0,0,0,0,0,9.81,1900\n")
+    r = run_to_end(boardsim, elf, "--seconds", "6", "--motion", str(csv), "--interp", "hold", "--no-noise")
+    assert not r["uart"]["hello_errors"] & P.BoardError.FLEX_RAIL, r["uart"]
+
+
+def test_rates_beyond_the_limit_are_refused_and_the_limit_holds_the_measured_cycles(
+        boardsim, elf, tmp_path):
+    """SET_RATE above the fused limit is refused (the link says so); at the limit the board's
+    cycles per sample, measured here, are within what eb_budget.h assumes."""
+    fused_top = P.BOARD_MAX_RATE_HZ[P.Mode.FUSED]
+    with running_board(boardsim, elf, tmp_path, "--flex-mv", str(FLEX_MV)) as board:
+        with pytest.raises(LinkError, match=f"the board refused .* 1..{fused_top} Hz"):
+            Link(LinkSettings(port=str(board.link), reconnect=False, rate_hz=300,
+                              mode=P.Mode.FUSED)).open()
+        with Link(LinkSettings(port=str(board.link), reconnect=False, rate_hz=fused_top,
+                               mode=P.Mode.FUSED)) as link:
+            samples = list(link.samples(1.5))
+            stats = link.stats()
+        report = board.report()
+    assert len(samples) >= fused_top and stats.dropped == 0
+    phases = report["phases"]
+    assert phases["read"]["mean_cycles_without_i2c_bus"] <= budget("EB_READ_CYCLES")
+    fused = phases["compute"]["mean_cycles"] + phases["send"]["mean_cycles"]
+    assert fused <= budget("EB_FUSED_CYCLES"), fused
+    assert phases["read"]["real_i2c_bus_cycles"] / phases["read"]["count"] <= \
+        budget("EB_I2C_BITS_PER_SAMPLE") * 40  # 400 kHz: 40 cycles a bit
+
+
+def test_fused_quaternion_turns_the_right_way_beyond_full_scale(boardsim, elf, tmp_path):
+    """Spinning at -40 rad/s (-2292 deg/s) about z reads -32768; with the chip's bias of
+    about +51 counts (seed 3) the fused yaw must still turn negative at about -2000 deg/s."""
+    csv = tmp_path / "spin.csv"
+    csv.write_text("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.81\n3,0,0,-40,0,0,9.81\n3.5,0,0,0,0,0,9.81\n")
+    with running_board(boardsim, elf, tmp_path, "--motion", str(csv), "--interp", "hold",
+                       "--seed", "3", "--flex-mv", str(FLEX_MV)) as board:
+        with Link(LinkSettings(port=str(board.link), reconnect=False, mode=P.Mode.FUSED)) as link:
+            samples = [s for s in link.samples(4.0) if isinstance(s, P.FusedSample)]
+        report = board.report()
+    assert report["eeprom_bias"] is not None and report["eeprom_bias"][2] > 0
+    offset = report["simulated_s"] - samples[-1].t  # simulated minus device time, within a period
+    spin = [s for s in samples if 3.05 <= s.t + offset <= 3.45]
+    assert len(spin) > 20
+    yaw = np.unwrap([2 * np.arctan2(s.q[3], s.q[0]) for s in spin])
+    rate = np.degrees(np.polyfit([s.t for s in spin], yaw, 1)[0])
+    assert rate == pytest.approx(-2000, abs=60), rate
