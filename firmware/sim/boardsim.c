@@ -69,6 +69,8 @@ typedef struct options {
 	int no_imu;
 	unsigned long long seed;
 	int no_noise;
+	int16_t eeprom_bias[3]; /* --eeprom-bias: a gyro bias record in EEPROM at power-up */
+	int has_eeprom_bias;
 	double seconds;   /* <= 0: run until killed */
 	double speed;     /* simulated seconds per wall second; 0: as fast as possible */
 	int json;
@@ -93,6 +95,7 @@ static void usage(FILE *f)
 		"  --no-imu        nothing answers on the I2C bus\n"
 		"  --seed N        seed of the sensors' noise and offsets (default 1)\n"
 		"  --no-noise      ideal sensors: no noise, zero-rate offset or start-up transient\n"
+		"  --eeprom-bias X,Y,Z  a saved gyro bias (counts) in EEPROM at power-up\n"
 		"  --seconds S     run S simulated seconds (at most 1e6), then exit (default:\n"
 		"                  until killed)\n"
 		"  --speed X       simulated seconds per wall second, 0 or at least 0.001\n"
@@ -145,6 +148,7 @@ static void parse_options(int argc, char **argv, options_t *o)
 		{ "flex-swing", required_argument, 0, 'w' },
 		{ "seed", required_argument, 0, 'r' },
 		{ "no-noise", no_argument, 0, 'q' },
+		{ "eeprom-bias", required_argument, 0, 'e' },
 		{ "seconds", required_argument, 0, 's' },
 		{ "speed", required_argument, 0, 'x' },
 		{ "json", no_argument, 0, 'j' },
@@ -164,6 +168,18 @@ static void parse_options(int argc, char **argv, options_t *o)
 		case 'm': o->motion = optarg; break;
 		case 'n': o->no_imu = 1; break;
 		case 'q': o->no_noise = 1; break;
+		case 'e': {
+			int x, y, z;
+			char end;
+			if (sscanf(optarg, "%d,%d,%d%c", &x, &y, &z, &end) != 3 || x < INT16_MIN || x > INT16_MAX ||
+			    y < INT16_MIN || y > INT16_MAX || z < INT16_MIN || z > INT16_MAX)
+				die_usage("--eeprom-bias takes three counts X,Y,Z in -32768..32767, not '%s'", optarg);
+			o->eeprom_bias[0] = (int16_t)x;
+			o->eeprom_bias[1] = (int16_t)y;
+			o->eeprom_bias[2] = (int16_t)z;
+			o->has_eeprom_bias = 1;
+			break;
+		}
 		case 'w':
 			if (parse_swing(optarg, &o->flex_lo_mv, &o->flex_hi_mv) < 0)
 				die_usage("--flex-swing takes LO,HI millivolts with 0 <= LO < HI <= 5000, not '%s'",
@@ -671,6 +687,18 @@ static void json_imu(FILE *f, const board_t *b)
 		fprintf(f, "  \"eeprom_bias\": null,\n");
 }
 
+/* --eeprom-bias: the firmware's own record (eb_bias.h) at address 0, as a board that
+ * saved a bias at an earlier boot has it. */
+static void preload_eeprom(board_t *b)
+{
+	if (!b->opt.has_eeprom_bias)
+		return;
+	uint8_t rec[EB_BIAS_RECORD_SIZE];
+	eb_bias_pack(rec, b->opt.eeprom_bias);
+	avr_eeprom_desc_t d = { rec, 0, sizeof(rec) };
+	avr_ioctl(b->avr, AVR_IOCTL_EEPROM_SET, &d);
+}
+
 static void print_json(FILE *f, const board_t *b, end_t end, double wall)
 {
 	static const char *const ends[] = { "seconds", "signal", "done", "crashed" };
@@ -775,6 +803,7 @@ int main(int argc, char **argv)
 	attach_adc(b);
 	attach_pins(b);
 	attach_uart(b);
+	preload_eeprom(b);
 	install_signals();
 
 	double wall_start = wall_now();

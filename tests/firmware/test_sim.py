@@ -397,6 +397,9 @@ def test_bad_motion_csv_is_a_clear_error(boardsim, tmp_path, content, words):
     (("--speed", "1e-4"), "--speed takes 0 (as fast as possible) or a number >= 0.001, not '1e-4'"),
     (("--flex-mv", "5001"), "--flex-mv takes millivolts 0..5000, not '5001'"),
     (("--interp", "cubic"), "--interp takes linear or hold, not 'cubic'"),
+    (("--flex-swing", "300,200"), "--flex-swing takes LO,HI millivolts with 0 <= LO < HI <= 5000, not '300,200'"),
+    (("--seed", "-1"), "--seed takes a whole number"),
+    (("--eeprom-bias", "1,2"), "--eeprom-bias takes three counts X,Y,Z in -32768..32767, not '1,2'"),
 ])
 def test_bad_option_is_a_clear_error(boardsim, tmp_path, args, words):
     # options are checked before the firmware is loaded
@@ -476,16 +479,20 @@ def test_rates_beyond_the_limit_are_refused_and_the_limit_holds_the_measured_cyc
 
 
 def test_fused_quaternion_turns_the_right_way_beyond_full_scale(boardsim, elf, tmp_path):
-    """Spinning at -40 rad/s (-2292 deg/s) about z reads -32768; with the chip's bias of
-    about +51 counts (seed 3) the fused yaw must still turn negative at about -2000 deg/s."""
+    """Spinning at -40 rad/s (-2292 deg/s) about z reads -32768 counts. The board is moved
+    at boot, so it uses the bias saved in EEPROM, +100 counts on z: -32768 - 100 must stay
+    at full scale (the fused yaw turns at -2000 deg/s), not wrap to +32668 (+1992 deg/s)."""
     csv = tmp_path / "spin.csv"
-    csv.write_text("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.81\n3,0,0,-40,0,0,9.81\n3.5,0,0,0,0,0,9.81\n")
+    rows = ["t,gx,gy,gz,ax,ay,az"]
+    rows += [f"{t / 100},0,{0.2 * np.sin(2 * np.pi * 2 * t / 100):.4f},0,0,0,9.81" for t in range(100)]
+    rows += ["1.0,0,0,0,0,0,9.81", "3,0,0,-40,0,0,9.81", "3.5,0,0,0,0,0,9.81"]
+    csv.write_text("\n".join(rows) + "\n")
     with running_board(boardsim, elf, tmp_path, "--motion", str(csv), "--interp", "hold",
-                       "--seed", "3", "--flex-mv", str(FLEX_MV)) as board:
+                       "--eeprom-bias", "0,0,100", "--no-noise", "--flex-mv", str(FLEX_MV)) as board:
         with Link(LinkSettings(port=str(board.link), reconnect=False, mode=P.Mode.FUSED)) as link:
             samples = [s for s in link.samples(4.0) if isinstance(s, P.FusedSample)]
         report = board.report()
-    assert report["eeprom_bias"] is not None and report["eeprom_bias"][2] > 0
+    assert report["eeprom_bias"] == [0, 0, 100]  # kept: the boot was not still
     offset = report["simulated_s"] - samples[-1].t  # simulated minus device time, within a period
     spin = [s for s in samples if 3.05 <= s.t + offset <= 3.45]
     assert len(spin) > 20
