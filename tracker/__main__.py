@@ -69,7 +69,8 @@ def add_source_options(p: argparse.ArgumentParser, modes: bool = True) -> None:
     src.add_argument("--port", help="serial port or pyserial URL (default: the first board found)")
     src.add_argument("--virtual", action="store_true", help="use a virtual board on a pty")
     p.add_argument("--baud", type=BAUD, help=f"baud rate, {BAUD.text} (default: 115200, falling back to 9600)")
-    p.add_argument("--rate", type=RATE, default=200, help=f"samples per second to ask for, {RATE.text} (200)")
+    p.add_argument("--rate", type=RATE, help=f"samples per second to ask for, {RATE.text} (200, or the "
+                   f"board's fused-mode limit, {P.BOARD_MAX_RATE_HZ[P.Mode.FUSED]}, in fused mode)")
     if modes:
         p.add_argument("--mode", choices=["raw", "fused"], default="raw",
                        help="raw sensor counts, or the board's own fused orientation")
@@ -80,6 +81,10 @@ def open_source(args: argparse.Namespace, tap: Callable[[bytes], None] | None = 
                 motion: MotionSource | None = None) -> Iterator[tuple[Link, VirtualBoard | None]]:
     """Open the board the options name (a virtual one for ``--virtual``, moved by ``motion``, default
     the simulated arm); ``tap`` sees every byte read. Yields the link and the virtual board, if any."""
+    mode = P.Mode[getattr(args, "mode", "raw").upper()]
+    rate = args.rate if args.rate is not None else P.default_rate_hz(mode)
+    if (why := P.board_rate_error(rate, mode)) is not None:
+        raise UsageError(f"--rate {why}")
     with contextlib.ExitStack() as stack:
         board = None
         if args.virtual:
@@ -90,8 +95,7 @@ def open_source(args: argparse.Namespace, tap: Callable[[bytes], None] | None = 
             port = args.port
         else:
             port = _autodetect()
-        mode = P.Mode[getattr(args, "mode", "raw").upper()]
-        settings = LinkSettings(port, baud=args.baud, rate_hz=args.rate, mode=mode)
+        settings = LinkSettings(port, baud=args.baud, rate_hz=rate, mode=mode)
         link = Link(settings)
         link.tap = tap
         stack.callback(link.close)  # before open: an interruption mid-handshake still stops its reader

@@ -330,13 +330,13 @@ class VirtualBoard:
             st.streaming = True
         elif c.type == P.FrameType.STOP:
             st.streaming = False
-        elif c.type == P.FrameType.SET_RATE:
-            if P.MIN_RATE_HZ <= c.arg <= P.MAX_RATE_HZ:
+        elif c.type == P.FrameType.SET_RATE:  # the firmware's limits (P.BOARD_MAX_RATE_HZ)
+            if P.board_rate_error(c.arg, st.mode) is None:
                 self._retime(c.arg)
             else:
                 status = P.AckStatus.BAD_ARGUMENT
         elif c.type == P.FrameType.SET_MODE:
-            if c.arg in P.Mode._value2member_map_:
+            if c.arg in P.Mode._value2member_map_ and P.board_rate_error(st.rate_hz, P.Mode(c.arg)) is None:
                 st.mode = P.Mode(c.arg)
             else:
                 status = P.AckStatus.BAD_ARGUMENT

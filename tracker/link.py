@@ -81,13 +81,17 @@ class LinkSettings:
 
     port: str
     baud: int | None = None  # None: try 115200 (our firmware), then 9600 (the paper's sketch)
-    rate_hz: int = 200
+    rate_hz: int | None = None  # None: P.default_rate_hz(mode)
     mode: P.Mode = P.Mode.RAW
     handshake_timeout_s: float = 2.0
     queue_size: int = 4096  # samples; about 20 s at 200 Hz
     reconnect: bool = True
     reconnect_interval_s: float = 0.25
     text_order: str = "wxyz"
+
+    def __post_init__(self) -> None:
+        if self.rate_hz is None:
+            self.rate_hz = P.default_rate_hz(self.mode)
 
 
 @dataclass
@@ -282,6 +286,9 @@ class Link:
                 port.close()
                 raise LinkError(f"{self.settings.port} stopped answering during the handshake: {e}") \
                     from None
+            except LinkError:  # the board refused the settings
+                port.close()
+                raise
             if session:
                 return session
             port.close()
@@ -334,11 +341,33 @@ class Link:
         return None, received
 
     def _configure(self, session: _Session) -> None:
+        """Mode and rate in an order the board takes (its limit depends on the mode,
+        PROTOCOL.md sec. 6: the rate first if the present mode allows it), then START."""
         s = self.settings
-        for c in (P.Command(P.FrameType.SET_MODE, int(s.mode)),
-                  P.Command(P.FrameType.SET_RATE, s.rate_hz),
-                  P.Command(P.FrameType.START)):
+        mode = P.Command(P.FrameType.SET_MODE, int(s.mode))
+        rate = P.Command(P.FrameType.SET_RATE, s.rate_hz)
+        rate_first = session.hello is not None and P.board_rate_error(s.rate_hz, session.hello.mode) is None
+        for c in ((rate, mode) if rate_first else (mode, rate)):
             self._send(session, c)
+        self._check_acks(session)
+        self._send(session, P.Command(P.FrameType.START))
+
+    def _check_acks(self, session: _Session, timeout_s: float = 0.5) -> None:
+        """Wait up to ``timeout_s`` for the ACKs of SET_MODE and SET_RATE; a refusal is a
+        :class:`LinkError` that says why (a board that does not answer is taken as it is)."""
+        s = self.settings
+        waiting = {P.FrameType.SET_MODE, P.FrameType.SET_RATE}
+        deadline = time.monotonic() + timeout_s
+        while waiting and time.monotonic() < deadline:
+            data = session.port.read(max(1, session.port.in_waiting))
+            for p in session.decoder.feed(data):
+                if not isinstance(p, P.Ack) or p.command not in waiting:
+                    continue
+                waiting.discard(p.command)
+                if p.status != P.AckStatus.OK:
+                    why = P.board_rate_error(s.rate_hz, s.mode) or "this board's limits differ from this host's"
+                    raise LinkError(f"the board refused {P.FrameType(p.command).name} "
+                                    f"({s.rate_hz} Hz, {s.mode.name.lower()} mode): {why}")
 
     @staticmethod
     def _send(session: _Session, c: P.Command) -> None:

@@ -75,6 +75,29 @@ class BoardError(IntFlag):
     OVERRUN = 0x10  # the sample loop missed its deadline
 
 
+# The highest rate the EnergyBall board sustains in each mode: 90% of its CPU (the I2C
+# bus at 100 kHz, the on-board filter) and of its UART, as the firmware computes it
+# (firmware/energyball/src/eb_budget.h; tests/firmware checks the two agree).
+# The board answers SET_RATE above it, or SET_MODE to a mode whose limit is below the
+# present rate, with BAD_ARGUMENT (PROTOCOL.md sec. 6).
+BOARD_MAX_RATE_HZ = {Mode.RAW: 228, Mode.FUSED: 161}
+BOOT_RATE_HZ = 200  # the board's rate after power-up (PROTOCOL.md sec. 7.1), what the host asks for by default
+
+
+def default_rate_hz(mode: Mode) -> int:
+    """The rate a host asks for unless told otherwise: the boot rate, or the mode's limit if lower."""
+    return min(BOOT_RATE_HZ, BOARD_MAX_RATE_HZ[mode])
+
+
+def board_rate_error(rate_hz: int, mode: Mode) -> str | None:
+    """Why the board refuses ``rate_hz`` in ``mode``, in a sentence; None if it takes it."""
+    top = BOARD_MAX_RATE_HZ[mode]
+    if MIN_RATE_HZ <= rate_hz <= top:
+        return None
+    return (f"{rate_hz} Hz is not a rate the board sustains in {mode.name.lower()} mode: "
+            f"it takes {MIN_RATE_HZ}..{top} Hz (firmware/README.md, rate limits)")
+
+
 class AckStatus(IntEnum):
     """Board's answer to a command."""
 

@@ -27,6 +27,7 @@
 #include "sampler.h"
 #include "src/eb_bias.h"
 #include "src/eb_board.h"
+#include "src/eb_budget.h"
 #include "src/eb_clock.h"
 #include "src/eb_filter.h"
 #include "src/eb_protocol.h"
@@ -44,7 +45,7 @@
 static const uint32_t BAUD = 9600;
 static const uint16_t LEGACY_LINES_HZ = 20; /* a 40-byte line at 9600 baud: 83% of the link */
 #else
-static const uint32_t BAUD = 115200;
+static const uint32_t BAUD = EB_BAUD; /* the rate limits follow it (eb_budget.h) */
 #endif
 static const uint8_t FLEX_PIN = A0;
 static const uint8_t FLEX_OVERSAMPLE = 4; /* 4 conversions of 104 us, averaged */
@@ -62,7 +63,8 @@ static eb_grid_t grid; /* stamp of the next due sample */
 static eb_filter_t filter;
 static Imu imu;
 static int16_t gyro_bias[3]; /* counts, for the on-board filter only: RAW frames are as read */
-static float sample_dt; /* s */
+static uint32_t filter_t_us; /* stamp of the filter's last sample */
+static bool filter_timed; /* filter_t_us holds: the filter has run since it was (re)started */
 static uint16_t errors; /* EB_ERR_* */
 static bool imu_ready;
 static uint8_t i2c_failures;
@@ -132,6 +134,7 @@ static void measure_gyro_bias()
     eb_still_t still;
     eb_still_init(&still);
     show_led(EB_LED_CALIBRATING); /* steady: keep still */
+    delay(EB_BIAS_SETTLE_MS); /* the gyroscope starts and the DLPF settles */
     for (uint8_t i = 0; i < EB_BIAS_SAMPLES; i++) {
         int16_t acc[3], gyr[3];
         wdt_reset();
@@ -213,14 +216,25 @@ static uint16_t flex_adc(const Reading &r)
 
 /* ------------------------------------------------------------ samples */
 
-static void update_filter(const Reading &r)
+static void restart_filter()
+{
+    eb_filter_init(&filter, EB_FILTER_ALPHA);
+    filter_timed = false;
+}
+
+/* The filter integrates the time since its last sample, skipped samples included
+ * (a late loop, a failed read): the first sample after a (re)start, one period. */
+static void update_filter(const Reading &r, uint32_t t_us)
 {
     float gyr[3], acc[3];
     for (uint8_t i = 0; i < 3; i++) {
-        gyr[i] = eb_gyr_rad_s((int16_t)(r.gyr[i] - gyro_bias[i]), EB_GYR_FS);
+        gyr[i] = eb_gyr_rad_s(eb_gyr_unbiased(r.gyr[i], gyro_bias[i]), EB_GYR_FS);
         acc[i] = eb_acc_m_s2(r.acc[i], EB_ACC_FS);
     }
-    eb_filter_update(&filter, gyr, acc, sample_dt);
+    float dt = filter_timed ? (float)(t_us - filter_t_us) * 1e-6f : 1.0f / state.rate_hz;
+    eb_filter_update(&filter, gyr, acc, dt);
+    filter_t_us = t_us;
+    filter_timed = true;
 }
 
 static float flex_deg(const Reading &r)
@@ -229,10 +243,10 @@ static float flex_deg(const Reading &r)
 }
 
 #if EB_LEGACY_TEXT
-static void emit_sample(const Reading &r, uint32_t)
+static void emit_sample(const Reading &r, uint32_t t_us)
 {
     PHASE_ON(PHASE_COMPUTE);
-    update_filter(r);
+    update_filter(r, t_us);
     bool line_due = --legacy_countdown == 0;
     char line[EB_TEXT_LINE_MAX];
     size_t n = 0;
@@ -251,7 +265,7 @@ static void emit_sample(const Reading &r, uint32_t t_us)
     size_t n;
     PHASE_ON(PHASE_COMPUTE);
     if (state.mode == EB_MODE_FUSED) {
-        update_filter(r);
+        update_filter(r, t_us);
         eb_fused_t s = {t_us, state.seq, {filter.q[0], filter.q[1], filter.q[2], filter.q[3]},
                         flex_deg(r)};
         n = eb_encode_fused(frame, &s);
@@ -279,23 +293,24 @@ static void take_sample(uint32_t t_us)
     state.seq++;
 }
 
-/* PROTOCOL.md 7.4: of the samples due, the most recent 50 ms are taken back to
- * back; older ones are skipped (and OVERRUN reported). Not streaming, or without
- * an IMU, the grid moves on and nothing is numbered. */
+/* PROTOCOL.md 7.4: of the samples due, only the most recent is taken; older ones are
+ * skipped (and OVERRUN reported), since the sensors can only be read now: a sample's
+ * data is read less than one period after its stamp. Not streaming, or without an IMU,
+ * the grid moves on and nothing is numbered (and the filter's clock starts again). */
 static void run_due_samples()
 {
     uint16_t n = sampler_take();
-    uint16_t limit = eb_catch_up_limit(state.rate_hz);
-    if (n > limit) {
+    if (!n)
+        return;
+    if (n > 1 && state.streaming)
         errors |= EB_ERR_OVERRUN;
-        for (; n > limit; n--)
-            eb_grid_advance(&grid);
-    }
-    for (; n; n--) {
-        if (state.streaming && imu_ready)
-            take_sample(grid.t_us);
+    for (; n > 1; n--)
         eb_grid_advance(&grid);
-    }
+    if (state.streaming && imu_ready)
+        take_sample(grid.t_us);
+    else
+        filter_timed = false;
+    eb_grid_advance(&grid);
 }
 
 /* Sample k of the current rate's grid is the next one; the timer's first
@@ -303,7 +318,6 @@ static void run_due_samples()
 static void start_sampling(uint32_t k)
 {
     eb_grid_set(&grid, state.rate_hz, k);
-    sample_dt = 1.0f / state.rate_hz;
     eb_grid_t next = grid;
     eb_grid_advance(&next);
     int32_t wait = (int32_t)(grid.t_us - device_us());
@@ -320,7 +334,7 @@ static void start_sampling(uint32_t k)
 static void power_up()
 {
     eb_state_power_up(&state);
-    eb_filter_init(&filter, EB_FILTER_ALPHA);
+    restart_filter();
     if (imu_ready)
         imu_set_rate(state.rate_hz);
 #if EB_LEGACY_TEXT
@@ -347,7 +361,7 @@ static void execute(const eb_command_t &c)
         start_sampling(eb_grid_first_after(state.rate_hz, device_us()));
         break;
     case EB_ACTION_MODE:
-        eb_filter_init(&filter, EB_FILTER_ALPHA); /* fused mode levels from its first sample */
+        restart_filter(); /* fused mode levels from its first sample */
         break;
     case EB_ACTION_RESET:
         power_up(); /* eb_execute asks for the HELLO after it, as after IDENTIFY */

@@ -6,14 +6,10 @@
 #include <Wire.h>
 
 #include "i2cbus.h"
+#include "src/eb_budget.h"
 #include "src/eb_protocol.h"
 
-/* Standard mode. Over an arm-length cable with the breakout's 10 kOhm pull-ups the
- * rise time is t_r = 0.8473 R C_b (UM10204 rev. 7, sec. 7.1): with C_b = 80 pF (about
- * 0.75 m of cable at 70 pF/m, two 10 pF pins, PCB) that is 680 ns, over Fast-mode's
- * 300 ns but within Standard-mode's 1000 ns (UM10204 table 10). firmware/README.md
- * has the sums and the sample budget. */
-static const uint32_t I2C_CLOCK_HZ = 100000;
+static const uint32_t I2C_CLOCK_HZ = EB_I2C_CLOCK_HZ; /* standard mode: why, in eb_budget.h */
 /* Each of Wire's waits is bounded; the longest transfer, the 18-byte burst with its
  * address, is 19 x 9 clocks = 1.7 ms at 100 kHz. */
 static const uint32_t I2C_TIMEOUT_US = 3000;

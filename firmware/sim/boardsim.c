@@ -2,7 +2,8 @@
  * boardsim - run the EnergyBall firmware ELF on a simulated ATmega328P.
  *
  *   boardsim ELF [--pty LINK] [--motion CSV] [--interp linear|hold]
- *                [--flex-mv MV] [--no-imu] [--seconds S] [--speed X]
+ *                [--flex-mv MV] [--flex-swing LO,HI] [--no-imu] [--seed N]
+ *                [--no-noise] [--eeprom-bias X,Y,Z] [--seconds S] [--speed X]
  *                [--json] [--verbose] [--imu-startup-ms MS] [--reset-at S]
  *                [--imu-glitch-at S] [--hang-at S]
  *
@@ -15,6 +16,7 @@
  * See firmware/sim/README.md.
  */
 #define _GNU_SOURCE
+#include <ctype.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <getopt.h>
@@ -28,6 +30,7 @@
 #include <unistd.h>
 
 #include <avr_adc.h>
+#include <avr_eeprom.h>
 #include <avr_ioport.h>
 #include <avr_twi.h>
 #include <avr_uart.h>
@@ -36,6 +39,7 @@
 #include <sim_irq.h>
 #include <uart_pty.h>
 
+#include "eb_bias.h"
 #include "eb_protocol.h"
 #include "frames.h"
 #include "i2cbus.h"
@@ -67,7 +71,12 @@ typedef struct options {
 	const char *motion;
 	motion_interp_t interp;
 	double flex_mv;   /* < 0: not given, the ADC reads 0 V */
+	double flex_lo_mv, flex_hi_mv; /* the op-amp's output swing */
 	int no_imu;
+	unsigned long long seed;
+	int no_noise;
+	int16_t eeprom_bias[3]; /* --eeprom-bias: a gyro bias record in EEPROM at power-up */
+	int has_eeprom_bias;
 	double seconds;   /* <= 0: run until killed */
 	double speed;     /* simulated seconds per wall second; 0: as fast as possible */
 	int json;
@@ -82,8 +91,9 @@ static void usage(FILE *f)
 {
 	fprintf(f,
 		"usage: boardsim ELF [--pty LINK] [--motion CSV] [--interp linear|hold]\n"
-		"                [--flex-mv MV] [--no-imu] [--seconds S] [--speed X] [--json]\n"
-		"                [--verbose]\n"
+		"                [--flex-mv MV] [--flex-swing LO,HI] [--no-imu] [--seed N]\n"
+		"                [--no-noise] [--eeprom-bias X,Y,Z] [--seconds S] [--speed X]\n"
+		"                [--json] [--verbose] [faults]\n"
 		"Runs the firmware ELF on a simulated ATmega328P at 16 MHz with a virtual\n"
 		"MPU-9250/AK8963 on I2C, a flex voltage on A0 and UART0 on a pty.\n"
 		"  --pty LINK      make LINK a symlink to the UART's pty (open it at 115200)\n"
@@ -91,7 +101,12 @@ static void usage(FILE *f)
 		"                  default: lying still, gravity on +z\n"
 		"  --interp MODE   linear (default) or hold, between CSV rows\n"
 		"  --flex-mv MV    voltage on A0 in millivolts, 0..5000 (default 0)\n"
+		"  --flex-swing LO,HI  the flex op-amp's output limits in millivolts (default\n"
+		"                  0,5000: rail to rail); A0 never reads outside them\n"
 		"  --no-imu        nothing answers on the I2C bus\n"
+		"  --seed N        seed of the sensors' noise and offsets (default 1)\n"
+		"  --no-noise      ideal sensors: no noise, zero-rate offset or start-up transient\n"
+		"  --eeprom-bias X,Y,Z  a saved gyro bias (counts) in EEPROM at power-up\n"
 		"  --seconds S     run S simulated seconds (at most 1e6), then exit (default:\n"
 		"                  until killed)\n"
 		"  --speed X       simulated seconds per wall second, 0 or at least 0.001\n"
@@ -116,6 +131,20 @@ static int parse_double(const char *s, double *out)
 		return -1;
 	*out = v;
 	return 0;
+}
+
+/* "LO,HI" millivolts with 0 <= LO < HI <= VCC. */
+static int parse_swing(const char *s, double *lo, double *hi)
+{
+	char buf[64];
+	const char *comma = strchr(s, ',');
+	if (!comma || (size_t)(comma - s) >= sizeof(buf))
+		return -1;
+	memcpy(buf, s, (size_t)(comma - s));
+	buf[comma - s] = '\0';
+	if (parse_double(buf, lo) < 0 || parse_double(comma + 1, hi) < 0)
+		return -1;
+	return *lo >= 0 && *lo < *hi && *hi <= VCC_MV ? 0 : -1;
 }
 
 static void die_usage(const char *fmt, const char *arg)
@@ -144,6 +173,10 @@ static void parse_options(int argc, char **argv, options_t *o)
 		{ "interp", required_argument, 0, 'i' },
 		{ "flex-mv", required_argument, 0, 'f' },
 		{ "no-imu", no_argument, 0, 'n' },
+		{ "flex-swing", required_argument, 0, 'w' },
+		{ "seed", required_argument, 0, 'S' },
+		{ "no-noise", no_argument, 0, 'q' },
+		{ "eeprom-bias", required_argument, 0, 'e' },
 		{ "seconds", required_argument, 0, 's' },
 		{ "speed", required_argument, 0, 'x' },
 		{ "json", no_argument, 0, 'j' },
@@ -157,6 +190,8 @@ static void parse_options(int argc, char **argv, options_t *o)
 	};
 	memset(o, 0, sizeof(*o));
 	o->flex_mv = -1.0;
+	o->flex_hi_mv = VCC_MV;
+	o->seed = 1;
 	o->speed = -1.0;
 	o->imu_startup_ms = IMU_STARTUP_MAX_S * 1000.0;
 	int c;
@@ -165,6 +200,32 @@ static void parse_options(int argc, char **argv, options_t *o)
 		case 'p': o->link = optarg; break;
 		case 'm': o->motion = optarg; break;
 		case 'n': o->no_imu = 1; break;
+		case 'q': o->no_noise = 1; break;
+		case 'e': {
+			int x, y, z;
+			char end;
+			if (sscanf(optarg, "%d,%d,%d%c", &x, &y, &z, &end) != 3 || x < INT16_MIN || x > INT16_MAX ||
+			    y < INT16_MIN || y > INT16_MAX || z < INT16_MIN || z > INT16_MAX)
+				die_usage("--eeprom-bias takes three counts X,Y,Z in -32768..32767, not '%s'", optarg);
+			o->eeprom_bias[0] = (int16_t)x;
+			o->eeprom_bias[1] = (int16_t)y;
+			o->eeprom_bias[2] = (int16_t)z;
+			o->has_eeprom_bias = 1;
+			break;
+		}
+		case 'w':
+			if (parse_swing(optarg, &o->flex_lo_mv, &o->flex_hi_mv) < 0)
+				die_usage("--flex-swing takes LO,HI millivolts with 0 <= LO < HI <= 5000, not '%s'",
+					  optarg);
+			break;
+		case 'S': {
+			char *end;
+			errno = 0;
+			o->seed = strtoull(optarg, &end, 10);
+			if (!isdigit((unsigned char)*optarg) || *end != '\0' || errno)
+				die_usage("--seed takes a whole number 0..18446744073709551615, not '%s'", optarg);
+			break;
+		}
 		case 'j': o->json = 1; break;
 		case 'v': o->verbose = 1; break;
 		case 'h': usage(stdout); exit(0);
@@ -347,7 +408,7 @@ static void on_avr_reset(void *param)
 
 static void attach_i2c(board_t *b)
 {
-	imu_init(&b->imu, &b->motion, b->opt.imu_startup_ms / 1000.0);
+	imu_init(&b->imu, &b->motion, b->opt.imu_startup_ms / 1000.0, b->opt.seed, !b->opt.no_noise);
 	imu_power_on(&b->imu, POWER_ON_S);
 	b->i2c_target = -1;
 	if (i2cbus_attach(&b->bus, b->avr, on_avr_reset, b) < 0) {
@@ -367,13 +428,14 @@ static void attach_i2c(board_t *b)
 
 /* ---------------------------------------------------------------- ADC */
 
+/* The flex op-amp's output now, within its swing (--flex-swing), millivolts. */
 static uint32_t flex_now(board_t *b)
 {
 	truth_t tr;
 	motion_at(&b->motion, sim_seconds(b), &tr);
-	if (tr.flex_mv >= 0)
-		return (uint32_t)lround(tr.flex_mv > VCC_MV ? VCC_MV : tr.flex_mv);
-	return b->opt.flex_mv >= 0 ? (uint32_t)lround(b->opt.flex_mv) : 0;
+	double mv = tr.flex_mv >= 0 ? tr.flex_mv : b->opt.flex_mv >= 0 ? b->opt.flex_mv : 0.0;
+	mv = fmin(fmax(mv, b->opt.flex_lo_mv), b->opt.flex_hi_mv);
+	return (uint32_t)lround(mv);
 }
 
 /* A conversion starts: put the present flex voltage on ADC0 (millivolts). */
@@ -680,6 +742,37 @@ static void json_string(FILE *f, const char *s)
 	fputc('"', f);
 }
 
+/* The virtual IMU's seed and offsets, and the gyroscope bias the firmware saved in
+ * EEPROM (its own record format, eb_bias.h), or null. */
+static void json_imu(FILE *f, const board_t *b)
+{
+	const noise_t *n = &b->imu.noise;
+	fprintf(f, "  \"imu\": {\"seed\": %llu, \"noise\": %s, \"gyro_zro_dps\": [%.6f, %.6f, %.6f]},\n",
+		(unsigned long long)n->seed, n->on ? "true" : "false", n->gyr_zro[0] * 180.0 / M_PI,
+		n->gyr_zro[1] * 180.0 / M_PI, n->gyr_zro[2] * 180.0 / M_PI);
+	uint8_t rec[EB_BIAS_RECORD_SIZE];
+	memset(rec, 0xFF, sizeof(rec)); /* a blank EEPROM if the copy fails */
+	avr_eeprom_desc_t d = { rec, 0, sizeof(rec) };
+	avr_ioctl(b->avr, AVR_IOCTL_EEPROM_GET, &d); /* copies; simavr 1.6 returns -1 even then */
+	int16_t bias[3];
+	if (eb_bias_unpack(rec, bias))
+		fprintf(f, "  \"eeprom_bias\": [%d, %d, %d],\n", bias[0], bias[1], bias[2]);
+	else
+		fprintf(f, "  \"eeprom_bias\": null,\n");
+}
+
+/* --eeprom-bias: the firmware's own record (eb_bias.h) at address 0, as a board that
+ * saved a bias at an earlier boot has it. */
+static void preload_eeprom(board_t *b)
+{
+	if (!b->opt.has_eeprom_bias)
+		return;
+	uint8_t rec[EB_BIAS_RECORD_SIZE];
+	eb_bias_pack(rec, b->opt.eeprom_bias);
+	avr_eeprom_desc_t d = { rec, 0, sizeof(rec) };
+	avr_ioctl(b->avr, AVR_IOCTL_EEPROM_SET, &d);
+}
+
 static void print_json(FILE *f, const board_t *b, end_t end, double wall)
 {
 	static const char *const ends[] = { "seconds", "signal", "done", "crashed" };
@@ -698,12 +791,12 @@ static void print_json(FILE *f, const board_t *b, end_t end, double wall)
 		"  \"wall_s\": %.3f,\n", sim_seconds(b), (unsigned long long)b->avr->cycle, F_CPU, wall);
 	fprintf(f, "  \"uart\": {\"bytes\": %llu, \"frames\": %llu, \"crc_errors\": %llu, "
 		"\"bytes_lost\": %llu, \"raw\": %llu, \"fused\": %llu, \"hello\": %llu, "
-		"\"ack\": %llu, \"other\": %llu},\n",
+		"\"ack\": %llu, \"other\": %llu, \"hello_errors\": %u},\n",
 		(unsigned long long)u->bytes, (unsigned long long)u->frames,
 		(unsigned long long)u->crc_errors, (unsigned long long)b->bytes_lost,
 		(unsigned long long)u->by_type[EB_RAW], (unsigned long long)u->by_type[EB_FUSED],
 		(unsigned long long)u->by_type[EB_HELLO], (unsigned long long)u->by_type[EB_ACK],
-		(unsigned long long)other);
+		(unsigned long long)other, (unsigned)u->hello_errors);
 	fprintf(f, "  \"i2c\": {\"transactions\": %llu, \"nacks\": %llu, \"bytes\": %llu, "
 		"\"bus_cycles\": %llu, \"scl_hz\": %u, \"stuck\": %llu, \"cleared\": %llu, \"blocked\": %s, "
 		"\"pullup_ms\": %llu},\n",
@@ -712,6 +805,7 @@ static void print_json(FILE *f, const board_t *b, end_t end, double wall)
 		(unsigned long long)b->bus.stuck, (unsigned long long)b->bus.cleared,
 		i2cbus_blocked(&b->bus) ? "true" : "false", (unsigned long long)b->bus.pullup_ms);
 	fprintf(f, "  \"resets\": %llu,\n", (unsigned long long)b->resets);
+	json_imu(f, b);
 	fprintf(f, "  \"phases\": {\n");
 	for (int i = 0; i < PHASE_COUNT; i++)
 		json_phase(f, &b->phases.p[i], i == PHASE_COUNT - 1);
@@ -783,6 +877,7 @@ int main(int argc, char **argv)
 	attach_adc(b);
 	attach_pins(b);
 	attach_uart(b);
+	preload_eeprom(b);
 	install_signals();
 
 	double wall_start = wall_now();

@@ -48,6 +48,8 @@ static int scan_once(frame_counter_t *fc)
 	}
 	fc->frames++;
 	fc->by_type[type]++;
+	if (type == EB_HELLO) /* errors: the u16 at payload offset 12 */
+		fc->hello_errors |= (uint16_t)(fc->buf[EB_HEADER_SIZE + 12] | fc->buf[EB_HEADER_SIZE + 13] << 8);
 	drop(fc, total);
 	return 1;
 }

@@ -27,6 +27,7 @@ typedef struct frame_counter {
 	uint64_t frames;
 	uint64_t crc_errors;
 	uint64_t by_type[256];
+	uint16_t hello_errors; /* every HELLO's error bits (PROTOCOL.md 5.1), or-ed */
 } frame_counter_t;
 
 void frames_init(frame_counter_t *fc);

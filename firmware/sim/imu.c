@@ -83,7 +83,26 @@ static double mpu_sample_period(const regdev_t *d)
 	return 1.0 / 8000.0;
 }
 
-/* Refresh the data registers with the truth at the latest internal sample. */
+/* DLPF bandwidths, Hz (register map 4.6: gyro DLPF_CFG, FCHOICE_B; 4.8: accel
+ * A_DLPF_CFG, ACCEL_FCHOICE_B): the noise's bandwidth. */
+static double mpu_gyr_bandwidth(const regdev_t *d)
+{
+	static const double hz[8] = { 250, 184, 92, 41, 20, 10, 5, 3600 };
+	if (d->reg[MPU_GYRO_CONFIG] & 3)
+		return d->reg[MPU_GYRO_CONFIG] & 1 ? 8800 : 3600;
+	return hz[d->reg[MPU_CONFIG] & 7];
+}
+
+static double mpu_acc_bandwidth(const regdev_t *d)
+{
+	static const double hz[8] = { 218.1, 218.1, 99, 44.8, 21.2, 10.2, 5.05, 420 };
+	if (d->reg[MPU_ACCEL_CONFIG2] & 0x08)
+		return 1046;
+	return hz[d->reg[MPU_ACCEL_CONFIG2] & 7];
+}
+
+/* Refresh the data registers with the truth (and the sensors' errors) at the latest
+ * internal sample. */
 static void mpu_sample(imu_t *imu)
 {
 	regdev_t *d = &imu->mpu;
@@ -95,9 +114,12 @@ static void mpu_sample(imu_t *imu)
 	motion_at(imu->motion, idx * period, &tr);
 	double acc_lsb = imu_acc_lsb(d->reg[MPU_ACCEL_CONFIG] >> 3);
 	double gyr_lsb = imu_gyr_lsb(d->reg[MPU_GYRO_CONFIG] >> 3);
+	double t = idx * period, acc_bw = mpu_acc_bandwidth(d), gyr_bw = mpu_gyr_bandwidth(d);
 	for (int i = 0; i < 3; i++) {
-		put_be16(&d->reg[MPU_ACCEL_XOUT_H + 2 * i], imu_counts(tr.acc[i], acc_lsb));
-		put_be16(&d->reg[MPU_GYRO_XOUT_H + 2 * i], imu_counts(tr.gyr[i], gyr_lsb));
+		double acc = tr.acc[i] + noise_acc(&imu->noise, i, idx, acc_bw);
+		double gyr = tr.gyr[i] + noise_gyro(&imu->noise, i, idx, t, gyr_bw);
+		put_be16(&d->reg[MPU_ACCEL_XOUT_H + 2 * i], imu_counts(acc, acc_lsb));
+		put_be16(&d->reg[MPU_GYRO_XOUT_H + 2 * i], imu_counts(gyr, gyr_lsb));
 	}
 	double temp = (IMU_TEMP_C - TEMP_ROOM_OFFSET) * TEMP_SENSITIVITY;
 	put_be16(&d->reg[MPU_TEMP_OUT_H], imu_counts(temp, 1.0));
@@ -111,10 +133,13 @@ static void mpu_write_reg(imu_t *imu, uint8_t reg, uint8_t v)
 	regdev_t *d = &imu->mpu;
 	if (reg == MPU_PWR_MGMT_1 && (v & 0x80)) {
 		mpu_reset(d); /* H_RESET: every register to its default; the bit clears itself */
+		noise_gyro_start(&imu->noise, imu->now);
 		return;
 	}
 	if (mpu_writable(reg))
 		d->reg[reg] = v;
+	if (reg == MPU_PWR_MGMT_1 && !(v & 0x40))
+		noise_gyro_start(&imu->noise, imu->now); /* awake, on a (new) clock: the gyro starts */
 }
 
 static uint8_t mpu_read_reg(imu_t *imu, uint8_t reg)
@@ -201,9 +226,12 @@ static void ak_latch(imu_t *imu, long k)
 	truth_t tr;
 	motion_at(imu->motion, ak_meas_time(ak, k), &tr);
 	int bit16 = (reg[AK_CNTL1] & 0x10) != 0;
-	int over = ak_put_axis(&reg[AK_HXL], tr.mag[1], bit16);
-	over |= ak_put_axis(&reg[AK_HXL + 2], tr.mag[0], bit16);
-	over |= ak_put_axis(&reg[AK_HXL + 4], -tr.mag[2], bit16);
+	double m[3];
+	for (int i = 0; i < 3; i++)
+		m[i] = tr.mag[i] + noise_mag(&imu->noise, i, k);
+	int over = ak_put_axis(&reg[AK_HXL], m[1], bit16);
+	over |= ak_put_axis(&reg[AK_HXL + 2], m[0], bit16);
+	over |= ak_put_axis(&reg[AK_HXL + 4], -m[2], bit16);
 	reg[AK_ST2] = (uint8_t)((bit16 ? 0x10 : 0) | (over ? 0x08 : 0));
 	if (reg[AK_ST1] & 0x01)
 		reg[AK_ST1] |= 0x02; /* DOR: the previous data was never read */
@@ -266,11 +294,12 @@ void imu_power_on(imu_t *imu, double now)
 	ak_reset(&imu->ak);
 }
 
-void imu_init(imu_t *imu, const motion_t *motion, double startup_s)
+void imu_init(imu_t *imu, const motion_t *motion, double startup_s, uint64_t seed, int noise_on)
 {
 	memset(imu, 0, sizeof(*imu));
 	imu->motion = motion;
 	imu->startup_s = startup_s;
+	noise_init(&imu->noise, seed, noise_on);
 	imu_power_on(imu, 0.0);
 }
 

@@ -29,6 +29,7 @@
 #include <stdint.h>
 
 #include "motion.h"
+#include "noise.h"
 
 #define MPU_ADDR 0x68
 #define AK_ADDR 0x0C
@@ -86,14 +87,16 @@ typedef struct imu {
 	regdev_t mpu;
 	ak8963_t ak;
 	const motion_t *motion;
+	noise_t noise;       /* the sensors' errors (noise.h) */
 	double now;          /* simulated time of the current transaction, s */
 	long mpu_sample_idx; /* index of the internal sample in the data registers */
 	double powered_at;   /* last power-on, s */
 	double startup_s;    /* start-up time for register read/write, s */
 } imu_t;
 
-/* Powered on at time 0 with the given start-up time (s); imu_power_on moves it. */
-void imu_init(imu_t *imu, const motion_t *motion, double startup_s);
+/* Powered on at time 0 with the given start-up time (s); imu_power_on moves it. seed
+ * and noise_on: the sensors' errors (noise.h); noise_on 0 is an ideal sensor. */
+void imu_init(imu_t *imu, const motion_t *motion, double startup_s, uint64_t seed, int noise_on);
 
 /* The supply came back at `now` (a glitch): reset values, start-up again. */
 void imu_power_on(imu_t *imu, double now);

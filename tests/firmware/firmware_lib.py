@@ -99,7 +99,7 @@ class Mag(C.Structure):
 
 
 class Still(C.Structure):
-    _fields_ = [("sum", C.c_int32 * 3), ("lo", C.c_int16 * 6), ("hi", C.c_int16 * 6), ("n", C.c_uint8)]
+    _fields_ = [("first", C.c_int16 * 6), ("sum", C.c_int32 * 6), ("sq", C.c_int32 * 6), ("n", C.c_uint8)]
 
 
 class Rail(C.Structure):
@@ -122,11 +122,12 @@ _SIGNATURES = {
     "eb_execute": (Reply, [C.POINTER(State), C.POINTER(Command)]),
     "eb_rail_update": (C.c_bool, [C.POINTER(Rail), C.c_uint16, C.c_uint16]),
     "eb_led_on": (C.c_bool, [C.c_uint8, C.c_uint32]),
-    "eb_rate_valid": (C.c_bool, [C.c_uint16]),
+    "eb_rate_valid": (C.c_bool, [C.c_uint16, C.c_uint8]),
+    "eb_max_rate_hz": (C.c_uint16, [C.c_uint8, C.c_uint32, C.c_uint32, C.c_uint32]),
+    "eb_uart_baud": (C.c_uint32, [C.c_uint32, C.c_uint32]),
     "eb_grid_set": (None, [C.POINTER(Grid), C.c_uint16, C.c_uint32]),
     "eb_grid_first_after": (C.c_uint32, [C.c_uint16, C.c_uint32]),
     "eb_grid_advance": (None, [C.POINTER(Grid)]),
-    "eb_catch_up_limit": (C.c_uint16, [C.c_uint16]),
     "eb_timer_plan": (None, [C.POINTER(TimerPlan), C.c_uint16, C.c_uint32]),
     "eb_timer_next_period": (C.c_uint16, [C.POINTER(TimerPlan)]),
     "eb_timer_ticks": (C.c_uint16, [C.POINTER(TimerPlan), C.c_uint32]),
@@ -140,7 +141,8 @@ _SIGNATURES = {
     "eb_mag_adjust": (C.c_int16, [C.c_int16, C.c_uint8]),
     "eb_ak_parse": (None, [C.c_char_p, C.c_char_p, C.POINTER(Mag)]),
     "eb_flex_deg": (C.c_float, [C.c_float]),
-    "eb_flex_at_rail": (C.c_bool, [C.c_uint16]),
+    "eb_flex_rail_seconds": (C.c_uint8, [C.c_uint16]),
+    "eb_gyr_unbiased": (C.c_int16, [C.c_int16, C.c_int16]),
     "eb_gyr_rad_s": (C.c_float, [C.c_int16, C.c_uint8]),
     "eb_acc_m_s2": (C.c_float, [C.c_int16, C.c_uint8]),
     "eb_still_init": (None, [C.POINTER(Still)]),

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from tracker import protocol as P
+from tracker.flex import FlexCircuit
 from tracker.fusion import make
 from tracker.sim import Simulator, arm_chain, arm_swing, mpu9250
 
@@ -232,14 +233,21 @@ def test_commands_change_the_state_and_answer_as_the_virtual_board(lib):
     assert execute(lib, s, P.Command(T.STOP)) == (True, OK, 0, False) and not s.streaming
     assert execute(lib, s, P.Command(T.STOP))[:2] == (True, OK)
     assert execute(lib, s, P.Command(T.START))[:2] == (True, OK) and s.streaming
-    for rate, status in [(0, BAD), (1001, BAD), (1, OK), (1000, OK), (250, OK)]:
+    raw_top, fused_top = P.BOARD_MAX_RATE_HZ[P.Mode.RAW], P.BOARD_MAX_RATE_HZ[P.Mode.FUSED]
+    between = (raw_top + fused_top) // 2
+    for rate, status in [(0, BAD), (1001, BAD), (raw_top + 1, BAD), (1, OK), (raw_top, OK), (between, OK)]:
         ack, got, action, _ = execute(lib, s, P.Command(T.SET_RATE, rate))
         assert (ack, got) == (True, status)
         assert action == (1 if status == OK else 0)
-    assert s.rate_hz == 250
+    assert s.rate_hz == between
+    # FUSED's limit is below RAW's: the mode is refused until the rate comes down
+    assert execute(lib, s, P.Command(T.SET_MODE, 1))[:2] == (True, BAD) and s.mode == 0
+    assert execute(lib, s, P.Command(T.SET_RATE, fused_top))[:2] == (True, OK)
     assert execute(lib, s, P.Command(T.SET_MODE, 2))[:2] == (True, BAD) and s.mode == 0
     assert execute(lib, s, P.Command(T.SET_MODE, 1)) == (True, OK, 2, False) and s.mode == 1
     assert execute(lib, s, P.Command(T.SET_MODE, 1)) == (True, OK, 0, False)
+    assert execute(lib, s, P.Command(T.SET_RATE, fused_top + 1))[:2] == (True, BAD)
+    assert s.rate_hz == fused_top
     assert execute(lib, s, P.Command(T.IDENTIFY)) == (False, OK, 0, True)  # HELLO, no ACK
     s.seq = 1234
     s.streaming = False
@@ -247,11 +255,19 @@ def test_commands_change_the_state_and_answer_as_the_virtual_board(lib):
     assert (s.rate_hz, s.mode, s.streaming, s.seq) == (200, 0, True, 0)
 
 
-def test_flex_rail_needs_a_second_of_rail_readings(lib):
-    rail = Rail()
-    assert not any(lib.eb_rail_update(C.byref(rail), 0, 200) for _ in range(199))
-    assert lib.eb_rail_update(C.byref(rail), 1023, 200)
-    assert not lib.eb_rail_update(C.byref(rail), 390, 200)
+def test_flex_rail_is_a_band_held_a_second_high_and_ten_seconds_low(lib):
+    """Seed 000's circuit outputs at most Vref = 2.5 V (512 counts): near 1023 only a broken
+    circuit; near 0 an unplugged sensor, but also a bend past Rflex = Rf (tracker.flex)."""
+    circuit = FlexCircuit()
+    assert circuit.adc(circuit.volts(0.0)) <= 512  # a shorted sensor, the highest output
+    assert circuit.adc(circuit.volts(50e3)) > 8  # the paper's full bend: above the band
+    assert circuit.adc(circuit.volts(60e3)) == 0  # past Rf: the rail, legitimately
+    assert [a for a in range(1024) if lib.eb_flex_rail_seconds(a)] == [*range(0, 9), *range(1015, 1024)]
+    for adc, seconds in ((4, 10), (1020, 1)):  # an op-amp stopping 4 counts short of a rail
+        rail = Rail()
+        assert not any(lib.eb_rail_update(C.byref(rail), adc, 200) for _ in range(200 * seconds - 1))
+        assert lib.eb_rail_update(C.byref(rail), adc, 200)
+        assert not lib.eb_rail_update(C.byref(rail), 390, 200)
 
 
 def test_led_patterns(lib):
@@ -288,11 +304,6 @@ def test_first_grid_point_after_now_is_as_the_virtual_board(lib):
         assert g.t_us >= now or k * 10**6 // rate >= 2**32
 
 
-def test_catch_up_limit_is_50_ms(lib):
-    for rate in (1, 19, 20, 39, 40, 200, 1000):
-        assert lib.eb_catch_up_limit(rate) == max(1, rate // 20)
-
-
 @pytest.mark.parametrize("rate", [1, 2, 3, 30, 31, 200, 300, 333, 1000])
 def test_timer_periods_fit_16_bits_and_sum_to_a_second(lib, rate):
     t = TimerPlan()
@@ -305,8 +316,34 @@ def test_timer_periods_fit_16_bits_and_sum_to_a_second(lib, rate):
     assert lib.eb_timer_ticks(C.byref(t), 1000) == max(1, 1000 * 16 // prescaler)
 
 
-def test_every_rate_is_valid_from_1_to_1000(lib):
-    assert [r for r in range(0, 1100) if lib.eb_rate_valid(r)] == list(range(1, 1001))
+def test_the_host_knows_the_rates_the_board_takes(lib):
+    """tracker.protocol's limits are the firmware's, rate by rate and mode by mode."""
+    for mode in P.Mode:
+        valid = [r for r in range(0, 1100) if lib.eb_rate_valid(r, int(mode))]
+        assert valid == [r for r in range(0, 1100) if P.board_rate_error(r, mode) is None]
+        assert valid == list(range(1, P.BOARD_MAX_RATE_HZ[mode] + 1))
+
+
+@pytest.mark.parametrize("baud, real", [(115200, 117647), (250000, 250000), (500000, 500000)])
+def test_uart_runs_at_the_baud_the_ubrr_gives(lib, baud, real):
+    """ATmega328P data sheet table 20-1, double speed: baud = 16 MHz / (8 (UBRR + 1))."""
+    assert lib.eb_uart_baud(16_000_000, baud) == real
+
+
+def test_rate_limits_follow_the_clocks_as_worked_by_hand(lib):
+    """eb_budget.h's model, worked by hand. At 100 kHz an SCL period is 160 cycles; a RAW
+    sample costs 13000 + 192 x 160 + 7700 + 32 x 140 = 55900 cycles and the AK8963's 100
+    reads a second 100 x 102 x 160 = 1632000, so 90% of 16 MHz holds
+    (14400000 - 1632000) / 55900 = 228.4 samples a second; the link at 115200 baud
+    (really 117647) carries 117647 / 10 x 0.9 / 32 = 330.9, so RAW is CPU-bound. FUSED reads
+    no magnetometer: 13000 + 30720 + 42500 + 22 x 140 = 89300 cycles, 161.3 a second. At
+    400 kHz (40 cycles a bit) RAW is link-bound at 115200 baud."""
+    rate = lambda mode, i2c, baud: lib.eb_max_rate_hz(mode, 16_000_000, i2c, baud)  # noqa: E731
+    assert rate(0, 100_000, 115200) == 228
+    assert rate(1, 100_000, 115200) == 161
+    assert rate(0, 400_000, 115200) == 330
+    assert rate(1, 400_000, 115200) == 14_400_000 // (13000 + 192 * 40 + 42500 + 22 * 140)
+    assert rate(0, 400_000, 500_000) == (14_400_000 - 100 * 102 * 40) // (13000 + 192 * 40 + 7700 + 32 * 140)
 
 
 # ------------------------------------------------------------------ complementary filter
@@ -421,7 +458,17 @@ def test_magnetometer_adjustment_and_axes(lib):
 def test_flex_angle_is_the_papers_eq_3(lib):
     for adc in (0.0, 120.0, 390.0, 391.5, 1023.0):
         assert lib.eb_flex_deg(adc) == pytest.approx(-(adc - 390) / 3, abs=1e-5)
-    assert [a for a in range(1024) if lib.eb_flex_at_rail(a)] == [0, 1023]
+
+
+def test_bias_subtraction_saturates_instead_of_wrapping(lib):
+    """A gyroscope at full scale, -32768 (beyond -2000 deg/s), less a bias of +5 stays at
+    -32768; the int16 cast wrapped it to +32763 (the filter turned the other way)."""
+    assert lib.eb_gyr_unbiased(-32768, 5) == -32768
+    assert lib.eb_gyr_unbiased(32767, -5) == 32767
+    rng = random.Random(11)
+    for _ in range(5000):
+        g, b = rng.randrange(-32768, 32768), rng.randrange(-2000, 2001)
+        assert lib.eb_gyr_unbiased(g, b) == max(-32768, min(32767, g - b))
 
 
 def test_unit_conversions_match_the_host(lib):
@@ -447,6 +494,7 @@ def test_bias_is_the_mean_when_still(lib):
     rng = np.random.default_rng(10)
     gyr = rng.normal((30, -12, 5), 1.5, (128, 3)).round().astype(int)
     acc = rng.normal((0, 0, 2048), 3, (128, 3)).round().astype(int)
+    acc[7, 0] += 25  # one outlier: a peak-to-peak judgement would call this moving
     s = still_of(lib, zip(gyr.tolist(), acc.tolist()))
     assert lib.eb_still_is_still(C.byref(s))
     bias = (C.c_int16 * 3)()
@@ -454,6 +502,9 @@ def test_bias_is_the_mean_when_still(lib):
     assert np.abs(np.array(bias) - gyr.mean(axis=0)).max() <= 0.5
     moving = gyr.copy()
     moving[64:, 1] += 40  # 2.4 deg/s: turning
+    assert not lib.eb_still_is_still(C.byref(still_of(lib, zip(moving.tolist(), acc.tolist()))))
+    moving = gyr.copy()
+    moving[::2, 2], moving[1::2, 2] = 32000, -32000  # swinging at full scale: no int32 overflow
     assert not lib.eb_still_is_still(C.byref(still_of(lib, zip(moving.tolist(), acc.tolist()))))
     assert not lib.eb_still_is_still(C.byref(still_of(lib, zip(gyr[:100].tolist(), acc.tolist()))))
 

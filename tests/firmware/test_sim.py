@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import re
 import signal
 import subprocess
 import sys
@@ -21,12 +22,13 @@ import time
 from pathlib import Path
 from typing import Iterator
 
+import numpy as np
 import pytest
 import serial
 
 from tracker import protocol as P
 from tracker.board import FIRMWARE_VERSION, acc_lsb, counts, gyr_lsb
-from tracker.link import Link, LinkSettings
+from tracker.link import Link, LinkError, LinkSettings
 
 from .firmware_lib import require, require_tool
 
@@ -159,7 +161,7 @@ def stream(boardsim: Path, elf: Path, motion_csv: Path, tmp_path_factory: pytest
     """About 2.8 simulated seconds read through tracker.link.Link, then an IDENTIFY."""
     tmp = tmp_path_factory.mktemp("stream")
     with running_board(boardsim, elf, tmp, "--motion", str(motion_csv), "--interp", "hold",
-                       "--flex-mv", str(FLEX_MV)) as board:
+                       "--flex-mv", str(FLEX_MV), "--no-noise") as board:
         with Link(LinkSettings(port=str(board.link), reconnect=False, rate_hz=RATE_HZ)) as link:
             hello = link.hello
             samples: list[P.RawSample] = []
@@ -276,7 +278,7 @@ def test_linear_motion_is_interpolated_in_simulated_time(boardsim, elf, tmp_path
     """A ramp of gz, 0 -> 3 rad/s over 3 s: the counts follow it at the device clock's pace."""
     csv = tmp_path / "ramp.csv"
     csv.write_text("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.81\n3,0,0,3,0,0,9.81\n")
-    with running_board(boardsim, elf, tmp_path, "--motion", str(csv)) as board:
+    with running_board(boardsim, elf, tmp_path, "--motion", str(csv), "--no-noise") as board:
         with Link(LinkSettings(port=str(board.link), reconnect=False)) as link:
             samples = list(link.samples(1.5))
         board.report()
@@ -291,7 +293,7 @@ def test_linear_motion_is_interpolated_in_simulated_time(boardsim, elf, tmp_path
 
 
 def test_armtracker_monitor_reads_the_simulated_board(boardsim, elf, tmp_path):
-    with running_board(boardsim, elf, tmp_path, "--flex-mv", str(FLEX_MV)) as board:
+    with running_board(boardsim, elf, tmp_path, "--flex-mv", str(FLEX_MV), "--no-noise") as board:
         r = subprocess.run([sys.executable, "-m", "tracker", "monitor", "--port", str(board.link),
                             "--seconds", "1.5", "--json"], capture_output=True, text=True,
                            timeout=60, cwd=ROOT, stdin=subprocess.DEVNULL)
@@ -396,7 +398,111 @@ def test_bad_motion_csv_is_a_clear_error(boardsim, tmp_path, content, words):
     (("--speed", "1e-4"), "--speed takes 0 (as fast as possible) or a number >= 0.001, not '1e-4'"),
     (("--flex-mv", "5001"), "--flex-mv takes millivolts 0..5000, not '5001'"),
     (("--interp", "cubic"), "--interp takes linear or hold, not 'cubic'"),
+    (("--flex-swing", "300,200"), "--flex-swing takes LO,HI millivolts with 0 <= LO < HI <= 5000, not '300,200'"),
+    (("--seed", "-1"), "--seed takes a whole number"),
+    (("--eeprom-bias", "1,2"), "--eeprom-bias takes three counts X,Y,Z in -32768..32767, not '1,2'"),
 ])
 def test_bad_option_is_a_clear_error(boardsim, tmp_path, args, words):
     # options are checked before the firmware is loaded
     _boardsim_fails(boardsim, str(tmp_path / "unused.elf"), *args, words=words)
+
+
+# ---------------------------------------------------------------- issue 15: the board's computations
+
+
+BUDGET_H = FIRMWARE / "energyball" / "src" / "eb_budget.h"
+
+
+def budget(name: str) -> int:
+    """A cycle figure the firmware's rate limits assume (eb_budget.h)."""
+    return int(re.search(rf"#define {name} (\d+)u", BUDGET_H.read_text()).group(1))
+
+
+# The boot is over by then: the MPU's start-up, its reset (100 ms), the gyroscope's
+# settling (100 ms) and 128 bias readings 1 ms apart plus a 100 kHz burst each (0.37 s).
+BOOTED_S = "1.0"
+
+
+def test_boot_bias_is_taken_on_every_noisy_chip_and_is_its_zero_rate_offset(boardsim, elf):
+    """Twelve chips (seeds) with the data sheet's noise, zero-rate offsets and start-up
+    transient, lying still: each saves a bias, and it is the chip's offset in counts."""
+    for seed in range(1, 13):
+        r = run_to_end(boardsim, elf, "--seconds", BOOTED_S, "--seed", str(seed))
+        assert r["uart"]["hello"] >= 1, "the boot did not finish"
+        assert r["eeprom_bias"] is not None, f"seed {seed}: a still board was judged moving"
+        want = counts(np.radians(r["imu"]["gyro_zro_dps"]), gyr_lsb(2000)).tolist()
+        assert all(abs(a - b) <= 1 for a, b in zip(r["eeprom_bias"], want)), (seed, r["eeprom_bias"], want)
+
+
+def test_a_board_moved_at_boot_saves_no_bias(boardsim, elf, tmp_path):
+    """A hand's wobble at boot, +-0.2 rad/s (11 deg/s) at 2 Hz: no bias is taken."""
+    csv = tmp_path / "wobble.csv"
+    rows = ["t,gx,gy,gz,ax,ay,az"]
+    rows += [f"{t / 100},0.2,{0.2 * np.sin(2 * np.pi * 2 * t / 100):.4f},0,0,0,9.81" for t in range(100)]
+    csv.write_text("\n".join(rows) + "\n")
+    r = run_to_end(boardsim, elf, "--seconds", BOOTED_S, "--motion", str(csv))
+    assert r["uart"]["hello"] >= 1, "the boot did not finish"
+    assert r["eeprom_bias"] is None
+
+
+def test_unplugged_flex_on_an_op_amp_short_of_the_rail_is_flagged(boardsim, elf):
+    """An op-amp whose output stops 20 mV above ground (4 counts) with the sensor unplugged."""
+    r = run_to_end(boardsim, elf, "--seconds", "11.5", "--flex-mv", "0", "--flex-swing", "20,4900",
+                   "--no-noise")
+    assert r["uart"]["hello_errors"] & P.BoardError.FLEX_RAIL
+
+
+def test_a_full_bend_past_rf_is_not_a_flex_fault(boardsim, elf, tmp_path):
+    """Straight (1.9 V), then 3 s bent past Rf = 51 kOhm (the output at the 0 V rail,
+    tracker.flex.FlexCircuit), then straight again: no FLEX_RAIL."""
+    csv = tmp_path / "bend.csv"
+    csv.write_text("t,gx,gy,gz,ax,ay,az,flex_mv\n0,0,0,0,0,0,9.81,1900\n2,0,0,0,0,0,9.81,0\n"
+                   "5,0,0,0,0,0,9.81,1900\n")
+    r = run_to_end(boardsim, elf, "--seconds", "6", "--motion", str(csv), "--interp", "hold", "--no-noise")
+    assert not r["uart"]["hello_errors"] & P.BoardError.FLEX_RAIL, r["uart"]
+
+
+def test_rates_beyond_the_limit_are_refused_and_the_limit_holds_the_measured_cycles(
+        boardsim, elf, tmp_path):
+    """SET_RATE above the fused limit is refused (the link says so); at the limit the board's
+    cycles per sample, measured here, are within what eb_budget.h assumes."""
+    fused_top = P.BOARD_MAX_RATE_HZ[P.Mode.FUSED]
+    with running_board(boardsim, elf, tmp_path, "--flex-mv", str(FLEX_MV)) as board:
+        with pytest.raises(LinkError, match=f"the board refused .* 1..{fused_top} Hz"):
+            Link(LinkSettings(port=str(board.link), reconnect=False, rate_hz=300,
+                              mode=P.Mode.FUSED)).open()
+        with Link(LinkSettings(port=str(board.link), reconnect=False, rate_hz=fused_top,
+                               mode=P.Mode.FUSED)) as link:
+            samples = list(link.samples(1.5))
+            stats = link.stats()
+        report = board.report()
+    assert len(samples) >= fused_top and stats.dropped == 0
+    phases = report["phases"]
+    assert phases["read"]["mean_cycles_without_i2c_bus"] <= budget("EB_READ_CYCLES")
+    fused = phases["compute"]["mean_cycles"] + phases["send"]["mean_cycles"]
+    assert fused <= budget("EB_FUSED_CYCLES"), fused
+    scl_cycles = 16_000_000 // report["i2c"]["scl_hz"]  # the harness times the real bus
+    assert phases["read"]["i2c_bus_cycles"] / phases["read"]["count"] <= budget("EB_MPU_BITS") * scl_cycles
+
+
+def test_fused_quaternion_turns_the_right_way_beyond_full_scale(boardsim, elf, tmp_path):
+    """Spinning at -40 rad/s (-2292 deg/s) about z reads -32768 counts. The board is moved
+    at boot, so it uses the bias saved in EEPROM, +100 counts on z: -32768 - 100 must stay
+    at full scale (the fused yaw turns at -2000 deg/s), not wrap to +32668 (+1992 deg/s)."""
+    csv = tmp_path / "spin.csv"
+    rows = ["t,gx,gy,gz,ax,ay,az"]
+    rows += [f"{t / 100},0,{0.2 * np.sin(2 * np.pi * 2 * t / 100):.4f},0,0,0,9.81" for t in range(100)]
+    rows += ["1.0,0,0,0,0,0,9.81", "3,0,0,-40,0,0,9.81", "3.5,0,0,0,0,0,9.81"]
+    csv.write_text("\n".join(rows) + "\n")
+    with running_board(boardsim, elf, tmp_path, "--motion", str(csv), "--interp", "hold",
+                       "--eeprom-bias", "0,0,100", "--no-noise", "--flex-mv", str(FLEX_MV)) as board:
+        with Link(LinkSettings(port=str(board.link), reconnect=False, mode=P.Mode.FUSED)) as link:
+            samples = [s for s in link.samples(4.0) if isinstance(s, P.FusedSample)]
+        report = board.report()
+    assert report["eeprom_bias"] == [0, 0, 100]  # kept: the boot was not still
+    t = np.array([s.t for s in samples])
+    yaw = np.unwrap([2 * np.arctan2(s.q[3], s.q[0]) for s in samples])
+    rates = np.degrees(np.diff(yaw) / np.diff(t))
+    spin = rates[np.abs(rates) > 1000]  # the spin's samples, wherever the host's pacing put them
+    assert len(spin) > 20, f"{len(spin)} samples of the spin"
+    assert np.median(spin) == pytest.approx(-2000, abs=60), np.median(spin)

@@ -113,7 +113,8 @@ def test_an_imu_supply_glitch_never_yields_wrong_data(boardsim, elf, tmp_path):
                      "4,0,0,0,0,0,9.81,40,20,-40\n")
     glitch_s = 1.2
     with running_board(boardsim, elf, tmp_path, "--motion", str(field), "--flex-mv", FLEX_MV,
-                       "--imu-glitch-at", str(glitch_s), "--imu-startup-ms", "11") as board:
+                       "--imu-glitch-at", str(glitch_s), "--imu-startup-ms", "11",
+                       "--no-noise") as board:
         packets = _packets(board.link, 2.6)
         report = board.report()
     samples = [p for p in packets if isinstance(p, P.RawSample)]

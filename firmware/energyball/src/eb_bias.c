@@ -4,30 +4,26 @@
 
 void eb_still_init(eb_still_t *s)
 {
-    for (uint8_t i = 0; i < 6; i++) {
-        s->lo[i] = INT16_MAX;
-        s->hi[i] = INT16_MIN;
-    }
-    s->sum[0] = s->sum[1] = s->sum[2] = 0;
+    for (uint8_t i = 0; i < 6; i++)
+        s->sum[i] = s->sq[i] = 0;
     s->n = 0;
-}
-
-static void widen(eb_still_t *s, uint8_t i, int16_t v)
-{
-    if (v < s->lo[i])
-        s->lo[i] = v;
-    if (v > s->hi[i])
-        s->hi[i] = v;
 }
 
 void eb_still_add(eb_still_t *s, const int16_t gyr[3], const int16_t acc[3])
 {
     if (s->n >= EB_BIAS_SAMPLES)
         return;
-    for (uint8_t i = 0; i < 3; i++) {
-        s->sum[i] += gyr[i];
-        widen(s, i, gyr[i]);
-        widen(s, (uint8_t)(i + 3), acc[i]);
+    for (uint8_t i = 0; i < 6; i++) {
+        int16_t v = i < 3 ? gyr[i] : acc[i - 3];
+        if (s->n == 0)
+            s->first[i] = v;
+        int32_t d = (int32_t)v - s->first[i];
+        if (d > EB_STILL_CLAMP)
+            d = EB_STILL_CLAMP;
+        if (d < -EB_STILL_CLAMP)
+            d = -EB_STILL_CLAMP;
+        s->sum[i] += d;
+        s->sq[i] += d * d;
     }
     s->n++;
 }
@@ -37,8 +33,10 @@ bool eb_still_is_still(const eb_still_t *s)
     if (s->n < EB_BIAS_SAMPLES)
         return false;
     for (uint8_t i = 0; i < 6; i++) {
-        int32_t span = (int32_t)s->hi[i] - s->lo[i];
-        if (span > (i < 3 ? EB_STILL_GYR_SPAN : EB_STILL_ACC_SPAN))
+        float mean = (float)s->sum[i] / s->n;
+        float variance = (float)s->sq[i] / s->n - mean * mean;
+        float limit = i < 3 ? EB_STILL_GYR_SD : EB_STILL_ACC_SD;
+        if (variance > limit * limit)
             return false;
     }
     return true;
@@ -49,7 +47,8 @@ void eb_still_mean(const eb_still_t *s, int16_t bias[3])
     int32_t n = s->n ? s->n : 1;
     for (uint8_t i = 0; i < 3; i++) {
         int32_t sum = s->sum[i];
-        bias[i] = (int16_t)((sum >= 0 ? sum + n / 2 : sum - n / 2) / n); /* half away from 0 */
+        int32_t mean = (sum >= 0 ? sum + n / 2 : sum - n / 2) / n; /* half away from 0 */
+        bias[i] = (int16_t)(s->first[i] + mean);
     }
 }
 

@@ -1,6 +1,6 @@
 /* Gyroscope bias at boot (the idea of seed 002, eq. 2: at rest the gyroscope's
- * mean is its offset; rest judged by a threshold on the readings), and the record
- * that keeps it in EEPROM, checked by a CRC, for boots when the board is moving.
+ * mean is its offset; rest judged by the readings' spread), and the record that
+ * keeps it in EEPROM, checked by a CRC, for boots when the board is moving.
  */
 #ifndef EB_BIAS_H
 #define EB_BIAS_H
@@ -13,21 +13,30 @@ extern "C" {
 #endif
 
 #define EB_BIAS_SAMPLES 128
-/* Rest thresholds, peak to peak over the samples, in counts at the boot full scales:
- * 16 counts = 1 deg/s at +-2000 deg/s (the noise is about 1 count rms with the DLPF
- * at 41 Hz), 41 counts = 20 mg at +-16 g. */
-#define EB_STILL_GYR_SPAN 16
-#define EB_STILL_ACC_SPAN 41
+/* Wait after configuring the MPU-9250 before measuring: the gyroscope's start-up time
+ * (35 ms, product specification PS-MPU-9250A-01 sec. 3.1 table 1) and several of the
+ * DLPF's delays (5.9 ms at 41 Hz, register map RM-MPU-9250A-00 sec. 4.6), with margin. */
+#define EB_BIAS_SETTLE_MS 100
+/* Rest: every axis's standard deviation over the samples within 4 times the data
+ * sheet's noise at the boot configuration (+-2000 deg/s, +-16 g, DLPF 41 / 44.8 Hz):
+ * gyroscope 0.01 deg/s/sqrt(Hz) x sqrt(41 Hz) x 16.4 LSB/(deg/s) = 1.05 counts
+ * (PS-MPU-9250A-01 table 1), accelerometer 300 ug/sqrt(Hz) x sqrt(44.8 Hz) x 2048 LSB/g
+ * = 4.1 counts (table 2). In counts at the boot full scales. */
+#define EB_STILL_GYR_SD 4.2f
+#define EB_STILL_ACC_SD 16.4f
+/* Deviations from the first sample are clamped to this before squaring, so the sums
+ * fit 32 bits; any axis that moves so far is far from still anyway. */
+#define EB_STILL_CLAMP 2047
 
 typedef struct {
-    int32_t sum[3];
-    int16_t lo[6], hi[6]; /* gyro xyz, accel xyz */
+    int16_t first[6]; /* gyro xyz, accel xyz: the first sample */
+    int32_t sum[6], sq[6]; /* deviations from it, and their squares */
     uint8_t n;
 } eb_still_t;
 
 void eb_still_init(eb_still_t *s);
 void eb_still_add(eb_still_t *s, const int16_t gyr[3], const int16_t acc[3]);
-/* Whether EB_BIAS_SAMPLES samples were added and every axis stayed within its span. */
+/* Whether EB_BIAS_SAMPLES samples were added and every axis's spread is within its limit. */
 bool eb_still_is_still(const eb_still_t *s);
 /* The mean gyroscope reading, rounded: the bias in counts. */
 void eb_still_mean(const eb_still_t *s, int16_t bias[3]);

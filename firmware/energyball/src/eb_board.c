@@ -1,6 +1,6 @@
 #include "eb_board.h"
 
-#include "eb_clock.h"
+#include "eb_budget.h"
 #include "eb_sensors.h"
 
 void eb_state_power_up(eb_state_t *s)
@@ -22,7 +22,7 @@ eb_reply_t eb_execute(eb_state_t *s, const eb_command_t *c)
         s->streaming = false;
         break;
     case EB_SET_RATE:
-        if (eb_rate_valid(c->arg)) {
+        if (eb_rate_valid(c->arg, s->mode)) {
             s->rate_hz = c->arg;
             r.action = EB_ACTION_RETIME;
         } else {
@@ -30,7 +30,8 @@ eb_reply_t eb_execute(eb_state_t *s, const eb_command_t *c)
         }
         break;
     case EB_SET_MODE:
-        if (c->arg == EB_MODE_RAW || c->arg == EB_MODE_FUSED) {
+        /* a mode whose limit is below the present rate is refused: set the rate first */
+        if ((c->arg == EB_MODE_RAW || c->arg == EB_MODE_FUSED) && eb_rate_valid(s->rate_hz, (uint8_t)c->arg)) {
             r.action = c->arg != s->mode ? EB_ACTION_MODE : EB_ACTION_NONE;
             s->mode = (uint8_t)c->arg;
         } else {
@@ -55,11 +56,12 @@ eb_reply_t eb_execute(eb_state_t *s, const eb_command_t *c)
 
 bool eb_rail_update(eb_rail_t *r, uint16_t adc, uint16_t rate_hz)
 {
-    if (!eb_flex_at_rail(adc))
+    uint16_t need = (uint16_t)(eb_flex_rail_seconds(adc) * rate_hz);
+    if (!need)
         r->run = 0;
-    else if (r->run < rate_hz)
+    else if (r->run < need)
         r->run++;
-    return r->run >= rate_hz;
+    return need && r->run >= need;
 }
 
 bool eb_led_on(uint8_t pattern, uint32_t ms)

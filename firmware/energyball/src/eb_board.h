@@ -48,7 +48,7 @@ eb_reply_t eb_execute(eb_state_t *s, const eb_command_t *c);
 #define EB_STATUS_BITS (EB_ERR_IMU_MISSING | EB_ERR_FLEX_RAIL | EB_EVENT_BITS)
 #define EB_STATUS_PERIOD_MS 1000u
 
-/* Flex sensor unplugged: every reading at a rail for a second of samples. */
+/* Flex circuit fault: every reading near a rail for as long as eb_flex_rail_seconds says. */
 typedef struct {
     uint16_t run; /* consecutive readings at a rail */
 } eb_rail_t;

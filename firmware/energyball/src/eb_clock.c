@@ -2,11 +2,6 @@
 
 #define US_PER_S 1000000ul
 
-bool eb_rate_valid(uint16_t rate_hz)
-{
-    return rate_hz >= EB_MIN_RATE_HZ && rate_hz <= EB_MAX_RATE_HZ;
-}
-
 void eb_grid_set(eb_grid_t *g, uint16_t rate_hz, uint32_t k)
 {
     /* round(k * 1e6 / rate) = a * 1e6 + (b * 1e6 + rate / 2) / rate with k = a * rate + b:
@@ -35,11 +30,6 @@ void eb_grid_advance(eb_grid_t *g)
         g->rem = (uint16_t)(g->rem - g->rate_hz);
         g->t_us++;
     }
-}
-
-uint16_t eb_catch_up_limit(uint16_t rate_hz)
-{
-    return rate_hz >= 40 ? rate_hz / 20 : 1;
 }
 
 void eb_timer_plan(eb_timer_plan_t *t, uint16_t rate_hz, uint32_t cpu_hz)

@@ -16,6 +16,7 @@
 extern "C" {
 #endif
 
+/* The protocol's range of rates (PROTOCOL.md sec. 6); eb_budget.h has what the board sustains. */
 #define EB_MIN_RATE_HZ 1
 #define EB_MAX_RATE_HZ 1000
 
@@ -27,7 +28,6 @@ typedef struct {
     uint16_t rate_hz;
 } eb_grid_t;
 
-bool eb_rate_valid(uint16_t rate_hz);
 /* The grid at sample k (k from power-up). */
 void eb_grid_set(eb_grid_t *g, uint16_t rate_hz, uint32_t k);
 /* Index of the first grid point strictly after now_us (sec. 7.3: SET_RATE keeps the
@@ -35,8 +35,6 @@ void eb_grid_set(eb_grid_t *g, uint16_t rate_hz, uint32_t k);
 uint32_t eb_grid_first_after(uint16_t rate_hz, uint32_t now_us);
 /* Move to the next sample. */
 void eb_grid_advance(eb_grid_t *g);
-/* Most samples taken back to back after a hiccup: 50 ms of them, at least 1 (sec. 7.4). */
-uint16_t eb_catch_up_limit(uint16_t rate_hz);
 
 /* Timer1 periods that keep the sample interrupt on the grid: the ATmega328P's
  * 16-bit timer at a prescaler chosen so one period fits in 65536 ticks, the

@@ -61,9 +61,16 @@ float eb_flex_deg(float adc)
     return -(adc - 390.0f) / 3.0f;
 }
 
-bool eb_flex_at_rail(uint16_t adc)
+uint8_t eb_flex_rail_seconds(uint16_t adc)
 {
-    return adc == 0 || adc >= 1023;
+    if (adc >= 1023 - EB_FLEX_RAIL_BAND)
+        return 1;
+    return adc <= EB_FLEX_RAIL_BAND ? EB_FLEX_LOW_RAIL_S : 0;
+}
+
+int16_t eb_gyr_unbiased(int16_t counts, int16_t bias)
+{
+    return saturate16((int32_t)counts - bias);
 }
 
 float eb_gyr_rad_s(int16_t counts, uint8_t fs_code)

@@ -84,8 +84,21 @@ void eb_ak_parse(const uint8_t data[AK_READ_LEN], const uint8_t asa[3], eb_mag_t
 
 /* Seed 000, eq. 3: theta = -(adc - 390) / 3 degrees (0 = straight). */
 float eb_flex_deg(float adc);
-/* Whether a 10-bit flex reading sits at a rail (sensor unplugged: the op-amp saturates). */
-bool eb_flex_at_rail(uint16_t adc);
+/* How long (s) a 10-bit flex reading must stay where it is to mean a fault; 0 where it
+ * is no sign of one. Seed 000's circuit (firmware/README.md, tracker/flex.py) gives at
+ * most Vref = 2.5 V (512 counts, a shorted sensor): a reading within EB_FLEX_RAIL_BAND
+ * of 1023 is a broken circuit, flagged after 1 s. The low rail is where an unplugged
+ * sensor drives the output, but also where a bend past Rflex = Rf = 51 kOhm takes it
+ * (130 degrees at the paper's 0.299 kOhm a degree from 12 kOhm; an elbow flexes to about
+ * 145): a reading within the band of 0 is flagged only after EB_FLEX_LOW_RAIL_S, longer
+ * than a bend is held in play. The band covers an op-amp whose output stops up to
+ * 8 counts (39 mV) from a rail; the paper's full bend (50 kOhm) reads 10 counts, above it. */
+#define EB_FLEX_RAIL_BAND 8
+#define EB_FLEX_LOW_RAIL_S 10
+uint8_t eb_flex_rail_seconds(uint16_t adc);
+/* Gyroscope counts less the bias, saturated to int16: a reading at full scale stays at
+ * full scale instead of wrapping to the other sign. */
+int16_t eb_gyr_unbiased(int16_t counts, int16_t bias);
 
 /* Counts to SI units (PROTOCOL.md sec. 8). */
 float eb_gyr_rad_s(int16_t counts, uint8_t fs_code);
