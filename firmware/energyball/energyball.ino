@@ -1,7 +1,7 @@
 /* EnergyBall arm tracker firmware: Adafruit Metro Mini (ATmega328P, 16 MHz), an
  * MPU-9250 on I2C and a flex sensor through an op-amp on A0 (seed 000, Zhu & Shi,
  * "Motion Control in VR", sec. 4), streaming the wire protocol of
- * firmware/PROTOCOL.md at 115200 baud: RAW frames (sensor counts), or FUSED frames
+ * firmware/PROTOCOL.md at 500000 baud: RAW frames (sensor counts), or FUSED frames
  * (the paper's complementary filter, sec. 3, run on the board, and the flex angle
  * of eq. 3). Built with -DEB_LEGACY_TEXT=1 (make LEGACY_TEXT=1) it prints the
  * paper's text lines at 9600 baud instead (PROTOCOL.md sec. 10).
@@ -42,7 +42,11 @@
 static const uint32_t BAUD = 9600;
 static const uint16_t LEGACY_LINES_HZ = 20; /* a 40-byte line at 9600 baud: 83% of the link */
 #else
-static const uint32_t BAUD = 115200;
+/* Exact at 16 MHz: the core sets U2X0 and UBRR0 = 3, 16e6 / (8 * 4) = 500000
+ * (DS40002061 table 20-1), where 115200 gives UBRR0 = 16, 117647 baud, 2.1% fast:
+ * past the receiver's recommended +-1.5% (table 20-3) for the host's commands. The
+ * CP2104 makes 500000 exactly too (48 MHz / 96, its data sheet sec. 6.1). */
+static const uint32_t BAUD = 500000;
 #endif
 static const uint8_t FLEX_PIN = A0;
 static const uint8_t FLEX_OVERSAMPLE = 4; /* 4 conversions of 104 us, averaged */
