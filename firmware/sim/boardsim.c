@@ -21,6 +21,7 @@
 #include <fcntl.h>
 #include <getopt.h>
 #include <math.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -248,10 +249,12 @@ typedef struct board {
 	int has_pty;
 	/* the serial line and the host's end of it */
 	host_port_t host;
+	pthread_mutex_t host_lock; /* the host's bytes come on the pty part's thread */
+	int reset_pending;        /* DTR rose: the AVR is held in reset until the main loop restarts it */
 	avr_irq_t *uart_in;       /* bytes into UART0's receiver */
 	double host_baud;         /* the host's requested rate, as last read */
 	uint64_t boot_until;      /* the sketch starts at this cycle after a reset */
-	uint64_t resets, bytes_to_bootloader, rx_garbled, tx_garbled;
+	uint64_t resets, bytes_to_bootloader, bytes_unheard, rx_garbled, tx_garbled;
 	uint64_t rng;
 	/* I2C */
 	avr_irq_t *twi_in;
@@ -458,13 +461,27 @@ static int in_bootloader(const board_t *b)
 	return b->avr->cycle < b->boot_until;
 }
 
+/*
+ * Take in the host's opens and closes (from either thread): an open that
+ * raises DTR resets the AVR at once, before any byte the host sends after it.
+ */
+static int host_holds_reset(board_t *b)
+{
+	pthread_mutex_lock(&b->host_lock);
+	if (host_port_poll(&b->host) && !b->opt.no_reset_on_open)
+		b->reset_pending = 1;
+	int pending = b->reset_pending;
+	pthread_mutex_unlock(&b->host_lock);
+	return pending;
+}
+
 /* A byte from the host: the bootloader takes it, or the UART reads it as the rates allow. */
 static void host_byte_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 {
 	(void)irq;
 	board_t *b = param;
 	uint8_t byte = (uint8_t)value;
-	if (in_bootloader(b)) {
+	if (host_holds_reset(b) || in_bootloader(b)) {
 		b->bytes_to_bootloader++; /* Optiboot reads it, the sketch never does */
 		return;
 	}
@@ -478,7 +495,9 @@ static void host_byte_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 /* DTR asserted: the auto-reset pulse. The AVR restarts, silent until the bootloader is done. */
 static void reset_into_bootloader(board_t *b)
 {
-	avr_reset(b->avr); /* simavr keeps the cycle count and drops pending cycle timers */
+	avr_reset(b->avr); /* simavr keeps the cycle count and drops pending cycle timers, */
+	/* the pty part's among them, which hands the host's bytes over; XON restarts it */
+	avr_raise_irq(avr_io_getirq(b->avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON), 1);
 	b->i2c_target = -1;
 	b->i2c_busy = 0;
 	b->boot_until = b->avr->cycle + (uint64_t)llround(b->opt.bootloader_ms * (F_CPU / 1000.0));
@@ -490,24 +509,30 @@ static void watch_host(board_t *b)
 {
 	if (!b->has_pty)
 		return;
-	if (host_port_poll(&b->host) && !b->opt.no_reset_on_open)
+	if (host_holds_reset(b)) {
 		reset_into_bootloader(b);
+		pthread_mutex_lock(&b->host_lock);
+		b->reset_pending = 0;
+		pthread_mutex_unlock(&b->host_lock);
+	}
 	b->host_baud = host_port_baud(&b->host);
 }
 
-/* The bootloader's time: no instruction of the sketch runs, simulated time goes on. */
+/* The bootloader's time: no instruction of the sketch runs, simulated time (and its timers) go on. */
 static void run_bootloader(board_t *b)
 {
 	uint64_t left = b->boot_until - b->avr->cycle;
 	b->avr->cycle += left < PACE_CYCLES ? left : PACE_CYCLES;
+	avr_cycle_timer_process(b->avr);
 }
 
 static void json_line(FILE *f, const board_t *b)
 {
 	fprintf(f, "  \"line\": {\"host_opens\": %llu, \"resets\": %llu, \"bytes_to_bootloader\": %llu, "
-		"\"rx_garbled\": %llu, \"tx_garbled\": %llu, \"avr_baud\": %.1f, \"host_baud\": %.1f},\n",
-		b->host.opened, (unsigned long long)b->resets,
-		(unsigned long long)b->bytes_to_bootloader, (unsigned long long)b->rx_garbled,
+		"\"bytes_unheard\": %llu, \"rx_garbled\": %llu, \"tx_garbled\": %llu, "
+		"\"avr_baud\": %.1f, \"host_baud\": %.1f},\n",
+		b->host.opened, (unsigned long long)b->resets, (unsigned long long)b->bytes_to_bootloader,
+		(unsigned long long)b->bytes_unheard, (unsigned long long)b->rx_garbled,
 		(unsigned long long)b->tx_garbled, avr_baud(b), host_line_baud(b));
 }
 
@@ -521,6 +546,10 @@ static void uart_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 	frames_feed(&b->uart, (uint8_t)value);
 	if (!b->has_pty)
 		return;
+	if (b->host.opens == 0) {
+		b->bytes_unheard++; /* a closed port's bridge has its UART off (Linux cp210x) */
+		return;
+	}
 	if (!receiver_reads(b, 0)) {
 		value = garble_byte(&b->rng, (uint8_t)value);
 		b->tx_garbled++;
@@ -581,11 +610,12 @@ static void attach_uart(board_t *b)
 		/* Route the UART's output through uart_hook (counting, overflow) instead,
 		 * and the host's bytes through host_byte_hook (bootloader, baud rates). */
 		avr_unconnect_irq(src, b->pty.irq + IRQ_UART_PTY_BYTE_IN);
+		pthread_mutex_init(&b->host_lock, NULL);
+		if (host_port_watch(&b->host, b->pty.pty.s, b->pty.pty.slavename) < 0)
+			exit(1);
 		b->uart_in = avr_io_getirq(b->avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
 		avr_unconnect_irq(b->pty.irq + IRQ_UART_PTY_BYTE_OUT, b->uart_in);
 		avr_irq_register_notify(b->pty.irq + IRQ_UART_PTY_BYTE_OUT, host_byte_hook, b);
-		if (host_port_watch(&b->host, b->pty.pty.s, b->pty.pty.slavename) < 0)
-			exit(1);
 		remove_link("/tmp/simavr-uart0", b->pty.pty.slavename); /* the part's own link */
 		b->has_pty = 1;
 		if (make_link(b->opt.link, b->pty.pty.slavename) < 0)
