@@ -13,10 +13,27 @@
 #include <sys/ioctl.h>
 #include <unistd.h>
 
+/*
+ * A USB serial port starts with HUPCL set (Linux's tty_std_termios), a pty
+ * without it: give the pty the serial port's default, which a host may clear.
+ */
+static int hang_up_by_default(int master)
+{
+	struct termios2 t;
+	if (ioctl(master, TCGETS2, &t) < 0)
+		return -1;
+	t.c_cflag |= HUPCL;
+	return ioctl(master, TCSETS2, &t);
+}
+
 int host_port_watch(host_port_t *hp, int master, const char *slave)
 {
 	memset(hp, 0, sizeof(*hp));
 	hp->master = master;
+	if (hang_up_by_default(master) < 0) {
+		fprintf(stderr, "boardsim: cannot set up the pty %s: %s\n", slave, strerror(errno));
+		return -1;
+	}
 	hp->inotify_fd = inotify_init1(IN_NONBLOCK | IN_CLOEXEC);
 	if (hp->inotify_fd < 0 ||
 	    inotify_add_watch(hp->inotify_fd, slave, IN_OPEN | IN_CLOSE) < 0) {
