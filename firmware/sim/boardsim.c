@@ -100,7 +100,7 @@ static void usage(FILE *f)
 		"                [--baud-error-pct P] [--seed N] [--verbose]\n"
 		"Runs the firmware ELF on a simulated ATmega328P at 16 MHz with a virtual\n"
 		"MPU-9250/AK8963 on I2C, a flex voltage on A0 and UART0 on a pty.\n"
-		"  --pty LINK      make LINK a symlink to the UART's pty (open it at 115200)\n"
+		"  --pty LINK      make LINK a symlink to the UART's pty (open it at the sketch's rate)\n"
 		"  --motion CSV    t,gx,gy,gz,ax,ay,az[,mx,my,mz][,flex_mv] (s, rad/s, m/s^2, uT, mV);\n"
 		"                  default: lying still, gravity on +z\n"
 		"  --interp MODE   linear (default) or hold, between CSV rows\n"
@@ -500,6 +500,8 @@ static void reset_into_bootloader(board_t *b)
 	avr_raise_irq(avr_io_getirq(b->avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON), 1);
 	b->i2c_target = -1;
 	b->i2c_busy = 0;
+	for (int i = 0; i < PHASE_COUNT; i++)
+		b->phases.p[i].high = 0; /* a loop phase the reset cut short is not counted */
 	b->boot_until = b->avr->cycle + (uint64_t)llround(b->opt.bootloader_ms * (F_CPU / 1000.0));
 	b->resets++;
 }
