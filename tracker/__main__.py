@@ -68,7 +68,8 @@ def add_source_options(p: argparse.ArgumentParser, modes: bool = True) -> None:
     src = p.add_mutually_exclusive_group()
     src.add_argument("--port", help="serial port or pyserial URL (default: the first board found)")
     src.add_argument("--virtual", action="store_true", help="use a virtual board on a pty")
-    p.add_argument("--baud", type=BAUD, help=f"baud rate, {BAUD.text} (default: 115200, falling back to 9600)")
+    p.add_argument("--baud", type=BAUD, help=f"baud rate, {BAUD.text} (default: 500000, falling back to 9600; "
+                   "115200 for EnergyBall firmware built before 500000 became its rate)")
     p.add_argument("--rate", type=RATE, help=f"samples per second to ask for, {RATE.text} (200, or the "
                    f"board's fused-mode limit, {P.BOARD_MAX_RATE_HZ[P.Mode.FUSED]}, in fused mode)")
     if modes:

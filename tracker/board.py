@@ -40,7 +40,7 @@ FIRMWARE_VERSION = "1.0.0"
 LEGACY_RATE_HZ = 20  # a 40-byte text line at 9600 baud leaves room for ~24 lines/s
 CATCH_UP_S = 0.5  # the longest hiccup of the host process whose samples are still sent late, not lost
 _BAUD_CONSTANTS = {getattr(termios, f"B{b}"): b for b in
-                   (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400)}
+                   (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400, 500000)}
 
 
 @dataclass

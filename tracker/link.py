@@ -6,11 +6,21 @@ the port, stamps every chunk with the host's receive time, decodes it and
 hands samples to the consumer through a bounded queue (the oldest sample is
 dropped, and counted, when the consumer falls behind). When the cable is
 pulled the thread keeps trying to reopen the same port and handshakes again.
+
+Opening the port resets an Arduino-class board (its USB bridge's DTR line is
+wired through a capacitor to RESET), and the bootloader then runs for about
+1.5 s before the sketch starts. The handshake waits that out without talking to
+the bootloader, and the link avoids every further reset it can: the baud rate
+fallback changes the open port's rate instead of reopening it, and on Linux
+and macOS the port is left with DTR asserted on close (HUPCL cleared), so a
+reconnect to the same port makes no new DTR edge. On Windows the port is
+opened with DTR and RTS off. See firmware/README.md, "Reset on open".
 """
 
 from __future__ import annotations
 
 import errno
+import os
 import queue
 import threading
 import time
@@ -23,6 +33,29 @@ from serial.tools import list_ports
 from serial.tools.list_ports_common import ListPortInfo
 
 from . import protocol as P
+
+try:
+    import termios
+except ImportError:  # Windows
+    termios = None
+
+# Optiboot 4.4 after a reset (firmware/sim/README.md, "Reset on open"): the 65 ms start-up
+# delay, three LED flashes (375 ms), a 1 s watchdog wait for a programmer, 65 ms again.
+BOOTLOADER_S = 0.065 + 0.375 + 1.0 + 0.065
+# The watchdog runs on an uncalibrated 128 kHz RC oscillator (the ATmega328P data sheet,
+# DS40002061, gives its frequency only as typical curves); allow it 25% slow. Bytes sent inside this
+# window go to the bootloader, which takes them for STK500 commands (one, PROG_PAGE,
+# erases a flash page before it checks the frame), so the host keeps quiet in it.
+BOOT_WINDOW_S = 1.25 * BOOTLOADER_S
+# From the sketch's start to its HELLO: IMU bring-up and the 128 ms gyro bias (0.29 s
+# measured on firmware/sim/boardsim).
+SKETCH_START_S = 0.3
+# The boot HELLO comes about 1.8 s after the port opens; the handshake allows the
+# watchdog 25% slow, the sketch twice its start and 0.5 s for the answer to travel.
+HANDSHAKE_TIMEOUT_S = round(BOOT_WINDOW_S + 2 * SKETCH_START_S + 0.5, 1)
+# After the first baud rate's turn the board has booted: a legacy text board prints
+# 20 lines a second, a binary one answers IDENTIFY at once.
+FALLBACK_LISTEN_S = 1.0
 
 # USB vendor/product ids of the boards and USB-serial chips an Arduino-class board uses.
 KNOWN_USB_IDS: dict[tuple[int, int], str] = {
@@ -80,10 +113,10 @@ class LinkSettings:
     """How to open and drive a board."""
 
     port: str
-    baud: int | None = None  # None: try 115200 (our firmware), then 9600 (the paper's sketch)
+    baud: int | None = None  # None: try 500000 (our firmware), then 9600 (the paper's sketch)
     rate_hz: int | None = None  # None: P.default_rate_hz(mode)
     mode: P.Mode = P.Mode.RAW
-    handshake_timeout_s: float = 2.0
+    handshake_timeout_s: float = HANDSHAKE_TIMEOUT_S
     queue_size: int = 4096  # samples; about 20 s at 200 Hz
     reconnect: bool = True
     reconnect_interval_s: float = 0.25
@@ -127,13 +160,37 @@ class LinkHealth:
 
 
 def open_port(port: str, baud: int, timeout: float = 0.05) -> serial.SerialBase:
-    """Open a port or URL, turning every failure into a one-line :class:`LinkError`."""
+    """Open a port or URL, turning every failure into a one-line :class:`LinkError`.
+
+    Resets the board as few times as the system allows (see the module's docstring).
+    """
     try:
-        return serial.serial_for_url(port, baudrate=baud, timeout=timeout, write_timeout=1.0)
+        s = serial.serial_for_url(port, baudrate=baud, timeout=timeout, write_timeout=1.0,
+                                  do_not_open=True)
+        if os.name == "nt":  # pyserial puts these in the port's first set-up: DTR never rises
+            s.dtr = s.rts = False
+        s.open()
     except ValueError as e:  # unknown URL scheme, bad baud rate
         raise LinkError(f"cannot open {port}: {e}") from None
     except (serial.SerialException, OSError) as e:
         raise LinkError(_explain_open_error(port, e)) from None
+    _keep_dtr_on_close(s)
+    return s
+
+
+def _keep_dtr_on_close(port: serial.SerialBase) -> None:
+    """Clear HUPCL (POSIX): closing the port then leaves DTR asserted, and the next open
+    makes no DTR edge, so it does not reset the board. The first open always does: the
+    kernel raises DTR inside open(2), before any program can say otherwise."""
+    fd = getattr(port, "fd", None)
+    if termios is None or not isinstance(fd, int):
+        return  # Windows, or a URL (socket://, loop://) with no tty under it
+    try:
+        attrs = termios.tcgetattr(fd)
+        attrs[2] &= ~termios.HUPCL
+        termios.tcsetattr(fd, termios.TCSANOW, attrs)
+    except termios.error:
+        pass  # not a tty: nothing to keep
 
 
 def _explain_open_error(port: str, e: Exception) -> str:
@@ -275,24 +332,28 @@ class Link:
         return total
 
     def _connect(self) -> _Session:
-        """Open the port and find out what is talking on it."""
+        """Open the port and find out what is talking on it.
+
+        The baud rates are tried on the one open port: reopening it would reset the board.
+        """
         bauds = [self.settings.baud] if self.settings.baud else [P.DEFAULT_BAUD, P.LEGACY_BAUD]
+        port = open_port(self.settings.port, bauds[0])
         received = 0
-        for baud in bauds:
-            port = open_port(self.settings.port, baud)
-            try:
-                session, n = self._handshake(port)
-            except (serial.SerialException, OSError) as e:
-                port.close()
-                raise LinkError(f"{self.settings.port} stopped answering during the handshake: {e}") \
-                    from None
-            except LinkError:  # the board refused the settings
-                port.close()
-                raise
-            if session:
-                return session
+        try:
+            for i, baud in enumerate(bauds):
+                port.baudrate = baud
+                session, n = self._handshake(port, after_open=i == 0)
+                if session:
+                    return session
+                received += n
+        except LinkError:  # the board refused the settings
             port.close()
-            received += n
+            raise
+        except (serial.SerialException, OSError) as e:
+            port.close()
+            raise LinkError(f"{self.settings.port} stopped answering during the handshake: {e}") \
+                from None
+        port.close()
         if received:
             self._no_frames(received, bauds)
         raise LinkError(f"no data from {self.settings.port} in {self.settings.handshake_timeout_s:g} s "
@@ -303,12 +364,17 @@ class Link:
         tried = " or ".join(str(b) for b in bauds)
         raise LinkError(f"{self.settings.port} sent {received} bytes but no valid frames at "
                         f"{tried} baud: a wrong baud rate, or not an EnergyBall board "
-                        "(try --baud 9600 for a paper-style sketch)")
+                        "(try --baud 9600 for a paper-style sketch, --baud 115200 for "
+                        "EnergyBall firmware built before the 500000 baud change)")
 
-    def _handshake(self, port: serial.SerialBase) -> tuple[_Session | None, int]:
+    def _handshake(self, port: serial.SerialBase, after_open: bool) -> tuple[_Session | None, int]:
         """Ask the board who it is and configure it; sniff for the paper's text stream too.
 
-        Returns the session, or None and how many bytes arrived if nothing made sense.
+        Right after the port opened the board may be in reset or in its bootloader: the
+        first STOP and IDENTIFY reach a board that did not reset (one in reset hears
+        nothing), then the host waits, quiet, for the boot HELLO and asks again only once
+        the bootloader must be done. Returns the session, or None and how many bytes
+        arrived if nothing made sense.
         """
         s = self.settings
         binary = P.FrameDecoder()
@@ -318,7 +384,11 @@ class Link:
         self._send(session, P.Command(P.FrameType.STOP))
         self._send(session, P.Command(P.FrameType.IDENTIFY))
         received, samples, text_samples = 0, 0, 0
-        deadline = time.monotonic() + s.handshake_timeout_s
+        listen = s.handshake_timeout_s if after_open else min(s.handshake_timeout_s, FALLBACK_LISTEN_S)
+        # A timeout inside the bootloader's window is a caller's who knows the board does not reset.
+        ask_again = BOOT_WINDOW_S if after_open and listen > BOOT_WINDOW_S else listen / 2
+        start = time.monotonic()
+        deadline = start + listen
         asked_again = False
         while time.monotonic() < deadline:
             data = port.read(max(1, port.in_waiting))
@@ -332,7 +402,7 @@ class Link:
             text_samples += len(text.feed(data))
             if text_samples >= 3 and samples == 0:
                 return _Session(port, text, None), received
-            if not asked_again and time.monotonic() > deadline - s.handshake_timeout_s / 2:
+            if not asked_again and time.monotonic() > start + ask_again:
                 self._send(session, P.Command(P.FrameType.IDENTIFY))  # the first may have been lost
                 asked_again = True
         if samples:  # frames but no hello: an older or minimal firmware; take it as it is

@@ -1,7 +1,7 @@
 /* EnergyBall arm tracker firmware: Adafruit Metro Mini (ATmega328P, 16 MHz), an
  * MPU-9250 on I2C and a flex sensor through an op-amp on A0 (seed 000, Zhu & Shi,
  * "Motion Control in VR", sec. 4), streaming the wire protocol of
- * firmware/PROTOCOL.md at 115200 baud: RAW frames (sensor counts), or FUSED frames
+ * firmware/PROTOCOL.md at 500000 baud: RAW frames (sensor counts), or FUSED frames
  * (the paper's complementary filter, sec. 3, run on the board, and the flex angle
  * of eq. 3). Built with -DEB_LEGACY_TEXT=1 (make LEGACY_TEXT=1) it prints the
  * paper's text lines at 9600 baud instead (PROTOCOL.md sec. 10).

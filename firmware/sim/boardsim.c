@@ -4,14 +4,17 @@
  *   boardsim ELF [--pty LINK] [--motion CSV] [--interp linear|hold]
  *                [--flex-mv MV] [--flex-swing LO,HI] [--no-imu] [--seed N]
  *                [--no-noise] [--eeprom-bias X,Y,Z] [--seconds S] [--speed X]
- *                [--json] [--verbose] [--imu-startup-ms MS] [--reset-at S]
- *                [--imu-glitch-at S] [--hang-at S]
+ *                [--no-reset-on-open] [--bootloader-ms MS] [--host-baud B]
+ *                [--baud-error-pct P] [--json] [--verbose] [--imu-startup-ms MS]
+ *                [--reset-at S] [--imu-glitch-at S] [--hang-at S]
  *
  * The board (simavr 1.6, 16 MHz): a virtual MPU-9250 + AK8963 on the TWI
  * bus (imu.c), a flex voltage on ADC0 with AVCC = AREF = 5 V, UART0 bridged
  * to a pty (simavr's uart_pty part) whose slave LINK points to, and the
- * loop-phase pins PB0..PB2 timed in CPU cycles (phases.c). With --json a
- * report goes to stdout at the end; messages go to stderr.
+ * loop-phase pins PB0..PB2 timed in CPU cycles (phases.c). The host opening
+ * the pty resets the board into its bootloader, and each end's real baud rate
+ * decides whether the other can read it (host_port.c, serial_line.c). With
+ * --json a report goes to stdout at the end; messages go to stderr.
  *
  * See firmware/sim/README.md.
  */
@@ -21,6 +24,7 @@
 #include <fcntl.h>
 #include <getopt.h>
 #include <math.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -43,9 +47,11 @@
 #include "eb_protocol.h"
 #include "frames.h"
 #include "i2cbus.h"
+#include "host_port.h"
 #include "imu.h"
 #include "motion.h"
 #include "phases.h"
+#include "serial_line.h"
 
 DEFINE_FIFO(uint8_t, uart_pty_fifo); /* accessors of the pty part's byte queues */
 
@@ -62,6 +68,19 @@ DEFINE_FIFO(uint8_t, uart_pty_fifo); /* accessors of the pty part's byte queues 
  * is held 16K CK + 14 CK + 65 ms after power-on (DS40002061, "Start-up Times for the
  * Full Swing Crystal Oscillator Clock Selection"), so the IMU was powered 65 ms before. */
 #define POWER_ON_S (-0.065)
+/*
+ * Optiboot 4.4 (the Uno's bootloader, which the Metro Mini ships; Arduino core
+ * bootloaders/optiboot/optiboot.c) after an external reset: the 65 ms time-out
+ * of the fuses' start-up setting (low fuse 0xFF: DS40002061 table 9-4), three
+ * LED flashes of 2 x 62.5 ms (flash_led), a 1 s watchdog wait for a programmer
+ * (WATCHDOG_1S: table 11-2, 128K cycles of the 128 kHz oscillator), then the
+ * watchdog's reset, 65 ms again, and the sketch.
+ */
+#define OPTIBOOT_MS (65 + 6 * 62.5 + 1000 + 65)
+#define MAX_BOOTLOADER_MS 10000.0
+#define HOST_BAUD_MIN 300.0        /* the CP2104's range, data sheet sec. 6.1 */
+#define HOST_BAUD_MAX 2000000.0
+#define MAX_BAUD_ERROR_PCT 10.0
 
 /* ---------------------------------------------------------------- options */
 
@@ -85,6 +104,10 @@ typedef struct options {
 	double reset_at;  /* > 0: reset the AVR at the first MPU read byte from then on */
 	double glitch_at; /* > 0: the IMU's supply drops out and comes back then */
 	double hang_at;   /* > 0: the CPU is sent into an endless loop then */
+	int no_reset_on_open;
+	double bootloader_ms;
+	double host_baud;       /* 0: the rate the host set on the pty */
+	double baud_error_pct;  /* the host end's clock error */
 } options_t;
 
 static void usage(FILE *f)
@@ -93,10 +116,11 @@ static void usage(FILE *f)
 		"usage: boardsim ELF [--pty LINK] [--motion CSV] [--interp linear|hold]\n"
 		"                [--flex-mv MV] [--flex-swing LO,HI] [--no-imu] [--seed N]\n"
 		"                [--no-noise] [--eeprom-bias X,Y,Z] [--seconds S] [--speed X]\n"
-		"                [--json] [--verbose] [faults]\n"
+		"                [--no-reset-on-open] [--bootloader-ms MS] [--host-baud B]\n"
+		"                [--baud-error-pct P] [--json] [--verbose] [faults]\n"
 		"Runs the firmware ELF on a simulated ATmega328P at 16 MHz with a virtual\n"
 		"MPU-9250/AK8963 on I2C, a flex voltage on A0 and UART0 on a pty.\n"
-		"  --pty LINK      make LINK a symlink to the UART's pty (open it at 115200)\n"
+		"  --pty LINK      make LINK a symlink to the UART's pty (open it at the sketch's rate)\n"
 		"  --motion CSV    t,gx,gy,gz,ax,ay,az[,mx,my,mz][,flex_mv] (s, rad/s, m/s^2, uT, mV);\n"
 		"                  default: lying still, gravity on +z\n"
 		"  --interp MODE   linear (default) or hold, between CSV rows\n"
@@ -104,20 +128,29 @@ static void usage(FILE *f)
 		"  --flex-swing LO,HI  the flex op-amp's output limits in millivolts (default\n"
 		"                  0,5000: rail to rail); A0 never reads outside them\n"
 		"  --no-imu        nothing answers on the I2C bus\n"
-		"  --seed N        seed of the sensors' noise and offsets (default 1)\n"
+		"  --seed N        seed of the sensors' noise and offsets and of the garbling of\n"
+		"                  bytes a receiver cannot read (default 1)\n"
 		"  --no-noise      ideal sensors: no noise, zero-rate offset or start-up transient\n"
 		"  --eeprom-bias X,Y,Z  a saved gyro bias (counts) in EEPROM at power-up\n"
 		"  --seconds S     run S simulated seconds (at most 1e6), then exit (default:\n"
 		"                  until killed)\n"
 		"  --speed X       simulated seconds per wall second, 0 or at least 0.001\n"
 		"                  (default 1 with --pty, else 0 = as fast as possible)\n"
+		"  --no-reset-on-open  the host opening the pty does not reset the board\n"
+		"                  (default: it does, and the bootloader runs first)\n"
+		"  --bootloader-ms MS  the bootloader's time after a reset, 0..10000\n"
+		"                  (default 1505: Optiboot's)\n"
+		"  --host-baud B   the rate the host's bridge is asked for, 300..2000000\n"
+		"                  (default: what the host set on the pty)\n"
+		"  --baud-error-pct P  the host end's clock error in percent, -10..10 (default 0)\n"
 		"  --json          print a JSON report on stdout at the end\n"
 		"  --verbose       show simavr's own messages\n"
 		"faults (firmware/sim/README.md):\n"
 		"  --imu-startup-ms MS  the MPU answers MS ms after power-on, 0..1000 (default 100,\n"
 		"                  the data sheet's maximum)\n"
-		"  --reset-at S    reset the AVR (as a host opening the port does) in the first MPU\n"
-		"                  read from S seconds on: the MPU holds SDA low\n"
+		"  --reset-at S    reset the AVR in the first MPU read from S seconds on: the MPU\n"
+		"                  holds SDA low (the sketch restarts at once; a host's open adds\n"
+		"                  the bootloader's time)\n"
 		"  --imu-glitch-at S  the IMU's supply drops out at S: registers to reset values\n"
 		"  --hang-at S     the CPU falls into an endless loop at S (only a watchdog gets out)\n");
 }
@@ -186,6 +219,10 @@ static void parse_options(int argc, char **argv, options_t *o)
 		{ "reset-at", required_argument, 0, 'r' },
 		{ "imu-glitch-at", required_argument, 0, 'g' },
 		{ "hang-at", required_argument, 0, 'H' },
+		{ "no-reset-on-open", no_argument, 0, 'R' },
+		{ "bootloader-ms", required_argument, 0, 'B' },
+		{ "host-baud", required_argument, 0, 'b' },
+		{ "baud-error-pct", required_argument, 0, 'E' },
 		{ 0, 0, 0, 0 },
 	};
 	memset(o, 0, sizeof(*o));
@@ -194,6 +231,7 @@ static void parse_options(int argc, char **argv, options_t *o)
 	o->seed = 1;
 	o->speed = -1.0;
 	o->imu_startup_ms = IMU_STARTUP_MAX_S * 1000.0;
+	o->bootloader_ms = OPTIBOOT_MS;
 	int c;
 	while ((c = getopt_long(argc, argv, "h", longopts, NULL)) != -1) {
 		switch (c) {
@@ -261,6 +299,23 @@ static void parse_options(int argc, char **argv, options_t *o)
 		case 'r': parse_fault_time("--reset-at", optarg, &o->reset_at); break;
 		case 'g': parse_fault_time("--imu-glitch-at", optarg, &o->glitch_at); break;
 		case 'H': parse_fault_time("--hang-at", optarg, &o->hang_at); break;
+		case 'R': o->no_reset_on_open = 1; break;
+		case 'B':
+			if (parse_double(optarg, &o->bootloader_ms) < 0 || o->bootloader_ms < 0 ||
+			    o->bootloader_ms > MAX_BOOTLOADER_MS)
+				die_usage("--bootloader-ms takes milliseconds 0..10000, not '%s'", optarg);
+			break;
+		case 'b':
+			if (parse_double(optarg, &o->host_baud) < 0 || o->host_baud < HOST_BAUD_MIN ||
+			    o->host_baud > HOST_BAUD_MAX)
+				die_usage("--host-baud takes a baud rate 300..2000000 (the CP2104's range), not '%s'",
+					  optarg);
+			break;
+		case 'E':
+			if (parse_double(optarg, &o->baud_error_pct) < 0 ||
+			    fabs(o->baud_error_pct) > MAX_BAUD_ERROR_PCT)
+				die_usage("--baud-error-pct takes a percentage -10..10, not '%s'", optarg);
+			break;
 		default: usage(stderr); exit(2);
 		}
 	}
@@ -284,13 +339,22 @@ typedef struct board {
 	int host_stalled;         /* the host stopped reading the pty */
 	uart_pty_t pty;
 	int has_pty;
+	/* the serial line and the host's end of it */
+	host_port_t host;
+	pthread_mutex_t host_lock; /* the host's bytes come on the pty part's thread */
+	int reset_pending;        /* DTR rose: the AVR is held in reset until the main loop restarts it */
+	avr_irq_t *uart_in;       /* bytes into UART0's receiver */
+	double host_baud;         /* the host's requested rate, as last read */
+	uint64_t boot_until;      /* the sketch starts at this cycle after a reset */
+	uint64_t dtr_resets, bytes_to_bootloader, bytes_unheard, rx_garbled, tx_garbled;
+	uint64_t rng;
 	/* I2C */
 	avr_irq_t *twi_in;
 	i2cbus_t bus;             /* timing, SDA held, bus clear, pull-ups */
 	int i2c_target;           /* 7-bit address being talked to, -1 none */
 	int i2c_reading;          /* the target was addressed for a read */
-	int reset_pending;        /* --reset-at: reset after this instruction */
-	uint64_t resets;          /* AVR resets after power-on (--reset-at, watchdog) */
+	int fault_reset_pending;  /* --reset-at: reset after this instruction */
+	uint64_t resets;          /* AVR resets after power-on (DTR, --reset-at, watchdog) */
 	int i2c_busy;
 	uint64_t i2c_busy_since;
 	uint64_t i2c_bus_cycles;  /* simulated bus time, cycles */
@@ -374,7 +438,7 @@ static void i2c_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 	} else if (msg & TWI_COND_READ) {
 		if (b->opt.reset_at > 0 && sim_seconds(b) >= b->opt.reset_at && b->i2c_target == MPU_ADDR) {
 			b->opt.reset_at = 0; /* once */
-			b->reset_pending = 1;
+			b->fault_reset_pending = 1;
 		}
 		uint8_t v = imu_read(&b->imu, (uint8_t)b->i2c_target);
 		i2c_reply(b, TWI_COND_READ, m.u.twi.addr, v);
@@ -477,6 +541,124 @@ static void attach_pins(board_t *b)
 
 /* ---------------------------------------------------------------- UART and pty */
 
+/* ---------------------------------------------------------------- the serial line */
+
+#define UCSR0A_ADDR 0xC0 /* DS40002061 sec. 20.11: UCSR0A (U2X0 is bit 1), UBRR0L, UBRR0H */
+#define U2X0_BIT 1
+#define UBRR0L_ADDR 0xC4
+#define UBRR0H_ADDR 0xC5
+
+/* UART0's rate as the firmware set it up. */
+static double avr_baud(const board_t *b)
+{
+	const uint8_t *d = b->avr->data;
+	unsigned ubrr = (unsigned)(d[UBRR0H_ADDR] & 0x0F) << 8 | d[UBRR0L_ADDR];
+	return avr_uart_baud(F_CPU, ubrr, d[UCSR0A_ADDR] >> U2X0_BIT & 1);
+}
+
+/* The rate on the wire from the host's bridge; 0 while unknown. */
+static double host_line_baud(const board_t *b)
+{
+	double requested = b->opt.host_baud > 0 ? b->opt.host_baud : b->host_baud;
+	if (requested <= 0)
+		return 0.0;
+	return cp2104_baud(requested) * (1.0 + b->opt.baud_error_pct / 100.0);
+}
+
+/* Whether the AVR reads the host's bytes (sec. 20.8.3) or the bridge the AVR's (CP2104 sec. 6.1). */
+static int receiver_reads(const board_t *b, int to_avr)
+{
+	double host = host_line_baud(b);
+	if (host <= 0)
+		return 1;
+	double avr = avr_baud(b);
+	if (to_avr)
+		return fabs(baud_mismatch_pct(host, avr)) <=
+		       avr_rx_tolerance_pct(b->avr->data[UCSR0A_ADDR] >> U2X0_BIT & 1);
+	return fabs(baud_mismatch_pct(avr, host)) <= CP2104_RX_TOLERANCE_PCT;
+}
+
+static int in_bootloader(const board_t *b)
+{
+	return b->avr->cycle < b->boot_until;
+}
+
+/*
+ * Take in the host's opens and closes (from either thread): an open that
+ * raises DTR resets the AVR at once, before any byte the host sends after it.
+ */
+static int host_holds_reset(board_t *b)
+{
+	pthread_mutex_lock(&b->host_lock);
+	if (host_port_poll(&b->host) && !b->opt.no_reset_on_open)
+		b->reset_pending = 1;
+	int pending = b->reset_pending;
+	pthread_mutex_unlock(&b->host_lock);
+	return pending;
+}
+
+/* A byte from the host: the bootloader takes it, or the UART reads it as the rates allow. */
+static void host_byte_hook(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+	(void)irq;
+	board_t *b = param;
+	uint8_t byte = (uint8_t)value;
+	if (host_holds_reset(b) || in_bootloader(b)) {
+		b->bytes_to_bootloader++; /* Optiboot reads it, the sketch never does */
+		return;
+	}
+	if (!receiver_reads(b, 1)) {
+		byte = garble_byte(&b->rng, byte);
+		b->rx_garbled++;
+	}
+	avr_raise_irq(b->uart_in, byte);
+}
+
+/* DTR asserted: the auto-reset pulse. The AVR restarts (on_avr_reset sees it), silent
+ * until the bootloader is done. */
+static void reset_into_bootloader(board_t *b)
+{
+	avr_reset(b->avr); /* simavr keeps the cycle count and drops pending cycle timers, */
+	/* the pty part's among them, which hands the host's bytes over; XON restarts it */
+	avr_raise_irq(avr_io_getirq(b->avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON), 1);
+	b->boot_until = b->avr->cycle + (uint64_t)llround(b->opt.bootloader_ms * (F_CPU / 1000.0));
+	b->dtr_resets++;
+}
+
+/* What the host did to its end since the last simulated millisecond. */
+static void watch_host(board_t *b)
+{
+	if (!b->has_pty)
+		return;
+	if (host_holds_reset(b)) {
+		reset_into_bootloader(b);
+		pthread_mutex_lock(&b->host_lock);
+		b->reset_pending = 0;
+		pthread_mutex_unlock(&b->host_lock);
+	}
+	b->host_baud = host_port_baud(&b->host);
+}
+
+/* The bootloader's time: no instruction of the sketch runs, simulated time (and its timers) go on. */
+static void run_bootloader(board_t *b)
+{
+	uint64_t left = b->boot_until - b->avr->cycle;
+	b->avr->cycle += left < PACE_CYCLES ? left : PACE_CYCLES;
+	avr_cycle_timer_process(b->avr);
+}
+
+static void json_line(FILE *f, const board_t *b)
+{
+	fprintf(f, "  \"line\": {\"host_opens\": %llu, \"resets\": %llu, \"bytes_to_bootloader\": %llu, "
+		"\"bytes_unheard\": %llu, \"rx_garbled\": %llu, \"tx_garbled\": %llu, "
+		"\"avr_baud\": %.1f, \"host_baud\": %.1f},\n",
+		b->host.opened, (unsigned long long)b->dtr_resets, (unsigned long long)b->bytes_to_bootloader,
+		(unsigned long long)b->bytes_unheard, (unsigned long long)b->rx_garbled,
+		(unsigned long long)b->tx_garbled, avr_baud(b), host_line_baud(b));
+}
+
+/* ---------------------------------------------------------------- UART and pty */
+
 /* Every byte the firmware's UART0 sends: count it, pass it to the pty. */
 static void uart_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 {
@@ -485,6 +667,14 @@ static void uart_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 	frames_feed(&b->uart, (uint8_t)value);
 	if (!b->has_pty)
 		return;
+	if (b->host.opens == 0) {
+		b->bytes_unheard++; /* a closed port's bridge has its UART off (Linux cp210x) */
+		return;
+	}
+	if (!receiver_reads(b, 0)) {
+		value = garble_byte(&b->rng, (uint8_t)value);
+		b->tx_garbled++;
+	}
 	if (uart_pty_fifo_isfull(&b->pty.pty.in)) {
 		b->bytes_lost++; /* like a USB-serial bridge whose host is not reading */
 		return;
@@ -538,8 +728,15 @@ static void attach_uart(board_t *b)
 			exit(1);
 		}
 		uart_pty_connect(&b->pty, '0');
-		/* Route the UART's output through uart_hook (counting, overflow) instead. */
+		/* Route the UART's output through uart_hook (counting, overflow) instead,
+		 * and the host's bytes through host_byte_hook (bootloader, baud rates). */
 		avr_unconnect_irq(src, b->pty.irq + IRQ_UART_PTY_BYTE_IN);
+		pthread_mutex_init(&b->host_lock, NULL);
+		if (host_port_watch(&b->host, b->pty.pty.s, b->pty.pty.slavename) < 0)
+			exit(1);
+		b->uart_in = avr_io_getirq(b->avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
+		avr_unconnect_irq(b->pty.irq + IRQ_UART_PTY_BYTE_OUT, b->uart_in);
+		avr_irq_register_notify(b->pty.irq + IRQ_UART_PTY_BYTE_OUT, host_byte_hook, b);
 		remove_link("/tmp/simavr-uart0", b->pty.pty.slavename); /* the part's own link */
 		b->has_pty = 1;
 		if (make_link(b->opt.link, b->pty.pty.slavename) < 0)
@@ -692,14 +889,18 @@ static end_t run(board_t *b, double wall_start)
 	uint64_t limit = b->opt.seconds > 0 ? (uint64_t)llround(b->opt.seconds * F_CPU) : UINT64_MAX;
 	uint64_t next_pace = PACE_CYCLES;
 	for (;;) {
-		int state = avr_run(avr);
+		int state = cpu_Running;
+		if (in_bootloader(b))
+			run_bootloader(b);
+		else
+			state = avr_run(avr);
 		if (state == cpu_Done)
 			return END_DONE;
 		if (state == cpu_Crashed)
 			return END_CRASHED;
-		if (b->reset_pending) {
-			b->reset_pending = 0;
-			avr_reset(avr);
+		if (b->fault_reset_pending) {
+			b->fault_reset_pending = 0;
+			avr_reset(avr); /* on_avr_reset sees it */
 		}
 		if (avr->cycle >= limit)
 			return END_SECONDS;
@@ -708,6 +909,7 @@ static end_t run(board_t *b, double wall_start)
 			if (stop_signal)
 				return END_SIGNAL;
 			step_faults(b);
+			watch_host(b);
 			pace(b, wall_start);
 		}
 	}
@@ -797,6 +999,7 @@ static void print_json(FILE *f, const board_t *b, end_t end, double wall)
 		(unsigned long long)u->by_type[EB_RAW], (unsigned long long)u->by_type[EB_FUSED],
 		(unsigned long long)u->by_type[EB_HELLO], (unsigned long long)u->by_type[EB_ACK],
 		(unsigned long long)other, (unsigned)u->hello_errors);
+	json_line(f, b);
 	fprintf(f, "  \"i2c\": {\"transactions\": %llu, \"nacks\": %llu, \"bytes\": %llu, "
 		"\"bus_cycles\": %llu, \"scl_hz\": %u, \"stuck\": %llu, \"cleared\": %llu, \"blocked\": %s, "
 		"\"pullup_ms\": %llu},\n",
@@ -873,6 +1076,9 @@ int main(int argc, char **argv)
 	if (!b->avr)
 		return 2;
 	frames_init(&b->uart);
+	b->rng = b->opt.seed ^ 0x9E3779B97F4A7C15ull;
+	if (b->rng == 0)
+		b->rng = 0x9E3779B97F4A7C15ull; /* xorshift stays at 0 from 0 */
 	attach_i2c(b);
 	attach_adc(b);
 	attach_pins(b);

@@ -42,13 +42,24 @@ RATE_HZ = 200
 FLEX_MV = 2000  # 2000 / 5000 * 1023 = 409.2: rounding and simavr's truncation agree
 MAX_CYCLES_PER_SAMPLE = 40_000  # raw mode at 200 Hz: half of the 80,000-cycle period
 
+# Opening the pty resets the simulated board, as a real one's USB bridge does, and
+# Optiboot 4.4 (Arduino core bootloaders/optiboot/optiboot.c) runs first: the fuses'
+# 65 ms start-up delay, three LED flashes of 2 x 62.5 ms, its 1 s watchdog wait, the
+# watchdog's reset and 65 ms again (boardsim's default --bootloader-ms). The motion,
+# like the world, does not wait for the sketch.
+OPTIBOOT_S = 0.065 + 6 * 0.0625 + 1.0 + 0.065
+# The sketch's own boot, power-up to streaming: the MPU's start-up and reset (about 0.2
+# s), the gyroscope's settling (100 ms) and 128 bias readings 1 ms apart plus a 100 kHz
+# burst each (0.37 s).
+BOOT_S = 0.8
+SKETCH_STARTS_BY_S = OPTIBOOT_S + BOOT_S
 # Piecewise-constant motion (sample-and-hold): a constant rotation with gravity
 # tilted, another, then rates and forces beyond full scale (the counts saturate).
 SEGMENTS = [
     # t, (gx, gy, gz) rad/s, (ax, ay, az) m/s^2, (mx, my, mz) uT
     (0.0, (0.5, -0.25, 1.0), (1.2, -2.5, 9.4), (12.0, -8.0, -35.0)),
-    (1.0, (-3.0, 2.0, 0.1), (-4.9, 0.0, 8.5), (-20.0, 15.0, 30.0)),
-    (2.0, (40.0, -40.0, 0.0), (200.0, -200.0, 0.0), (0.0, 20.0, -40.0)),
+    (SKETCH_STARTS_BY_S + 1.0, (-3.0, 2.0, 0.1), (-4.9, 0.0, 8.5), (-20.0, 15.0, 30.0)),
+    (SKETCH_STARTS_BY_S + 2.0, (40.0, -40.0, 0.0), (200.0, -200.0, 0.0), (0.0, 20.0, -40.0)),
 ]
 EDGE_S = 0.02  # samples this close to a segment change may hold either segment
 
@@ -243,7 +254,8 @@ def device_clock_offset(samples: list[P.RawSample]) -> float:
 def test_counts_are_the_injected_motion_quantised(stream):
     checked = set()
     offset = device_clock_offset(stream["samples"])
-    assert 0 <= offset < 1.0, offset
+    # The device clock started after the bootloader that the host's open ran.
+    assert OPTIBOOT_S <= offset < SKETCH_STARTS_BY_S, offset
     for s in stream["samples"]:
         seg = segment_at(s.t + offset)
         if seg is None:
@@ -275,9 +287,9 @@ def test_flex_is_the_injected_voltage(stream):
 
 
 def test_linear_motion_is_interpolated_in_simulated_time(boardsim, elf, tmp_path):
-    """A ramp of gz, 0 -> 3 rad/s over 3 s: the counts follow it at the device clock's pace."""
+    """A ramp of gz, 0 -> 6 rad/s over 6 s: the counts follow it at the device clock's pace."""
     csv = tmp_path / "ramp.csv"
-    csv.write_text("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.81\n3,0,0,3,0,0,9.81\n")
+    csv.write_text("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.81\n6,0,0,6,0,0,9.81\n")
     with running_board(boardsim, elf, tmp_path, "--motion", str(csv), "--no-noise") as board:
         with Link(LinkSettings(port=str(board.link), reconnect=False)) as link:
             samples = list(link.samples(1.5))
@@ -418,9 +430,7 @@ def budget(name: str) -> int:
     return int(re.search(rf"#define {name} (\d+)u", BUDGET_H.read_text()).group(1))
 
 
-# The boot is over by then: the MPU's start-up, its reset (100 ms), the gyroscope's
-# settling (100 ms) and 128 bias readings 1 ms apart plus a 100 kHz burst each (0.37 s).
-BOOTED_S = "1.0"
+BOOTED_S = str(BOOT_S + 0.2)  # without a pty: no bootloader
 
 
 def test_boot_bias_is_taken_on_every_noisy_chip_and_is_its_zero_rate_offset(boardsim, elf):
@@ -491,8 +501,10 @@ def test_fused_quaternion_turns_the_right_way_beyond_full_scale(boardsim, elf, t
     at full scale (the fused yaw turns at -2000 deg/s), not wrap to +32668 (+1992 deg/s)."""
     csv = tmp_path / "spin.csv"
     rows = ["t,gx,gy,gz,ax,ay,az"]
-    rows += [f"{t / 100},0,{0.2 * np.sin(2 * np.pi * 2 * t / 100):.4f},0,0,0,9.81" for t in range(100)]
-    rows += ["1.0,0,0,0,0,0,9.81", "3,0,0,-40,0,0,9.81", "3.5,0,0,0,0,0,9.81"]
+    wobble = round(SKETCH_STARTS_BY_S * 100)  # through the boot after the host's open
+    rows += [f"{t / 100},0,{0.2 * np.sin(2 * np.pi * 2 * t / 100):.4f},0,0,0,9.81" for t in range(wobble)]
+    spin = SKETCH_STARTS_BY_S + 1.0
+    rows += [f"{wobble / 100},0,0,0,0,0,9.81", f"{spin},0,0,-40,0,0,9.81", f"{spin + 0.5},0,0,0,0,0,9.81"]
     csv.write_text("\n".join(rows) + "\n")
     with running_board(boardsim, elf, tmp_path, "--motion", str(csv), "--interp", "hold",
                        "--eeprom-bias", "0,0,100", "--no-noise", "--flex-mv", str(FLEX_MV)) as board:

@@ -18,13 +18,12 @@ import serial
 from tracker import protocol as P
 from tracker.board import acc_lsb, counts
 
-from .test_sim import boardsim, elf, run_to_end, running_board, _boardsim_fails  # noqa: F401
+from .test_sim import BOOT_S, boardsim, elf, run_to_end, running_board, _boardsim_fails  # noqa: F401
 
 F_CPU = 16_000_000
 RATE_HZ = 200
 FLEX_MV = "2000"  # mid-range: no FLEX_RAIL status frames
 TYPICAL_STARTUP = ("--imu-startup-ms", "11")  # PS-MPU-9250A-01 sec. 3.4.2: one fault at a time
-BOOT_S = 0.8  # power-up to streaming: IMU set-up (~0.2 s) and 128 bias readings (~0.4 s at 100 kHz)
 WATCHDOG_S = 0.5  # WDTO_500MS (energyball.ino)
 STILL_ACC = (0.0, 0.0, 9.81)
 
@@ -114,7 +113,7 @@ def test_an_imu_supply_glitch_never_yields_wrong_data(boardsim, elf, tmp_path):
     glitch_s = 1.2
     with running_board(boardsim, elf, tmp_path, "--motion", str(field), "--flex-mv", FLEX_MV,
                        "--imu-glitch-at", str(glitch_s), "--imu-startup-ms", "11",
-                       "--no-noise") as board:
+                       "--no-noise", "--no-reset-on-open") as board:
         packets = _packets(board.link, 2.6)
         report = board.report()
     samples = [p for p in packets if isinstance(p, P.RawSample)]

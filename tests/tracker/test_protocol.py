@@ -154,9 +154,11 @@ def test_raw_frame_is_32_bytes_and_fits_the_link_budget():
     assert P.RAW_FRAME_SIZE == 32
     s = P.RawSample(0.0, 0, 0, (0, 0, 0), (0, 0, 0), (0, 0, 0), 0)
     assert len(P.encode(s)) == 32
-    # 200 Hz * 32 bytes * 10 bits (8N1) / 115200 baud
-    assert P.link_utilisation(200) == pytest.approx(200 * 32 * 10 / 115200)
-    assert P.link_utilisation(200) == pytest.approx(0.5556, abs=1e-4)
+    # 200 Hz * 32 bytes * 10 bits (8N1) / 500000 baud
+    assert P.link_utilisation(200) == pytest.approx(200 * 32 * 10 / 500000)
+    assert P.link_utilisation(200) == pytest.approx(0.128, abs=1e-4)
+    # 1000 Hz, the fastest rate SET_RATE takes, fits the link (it did not at 115200: 278%)
+    assert P.link_utilisation(P.MAX_RATE_HZ) == pytest.approx(0.64)
     assert P.link_utilisation(200) <= 0.60
 
 

@@ -35,14 +35,20 @@ extern "C" {
  * 300 ns but within Standard-mode's 1000 ns (UM10204 table 10). firmware/README.md
  * has the sums and the sample budget. */
 #define EB_I2C_CLOCK_HZ 100000ul
-#define EB_BAUD 115200ul /* the binary protocol's (PROTOCOL.md sec. 1) */
+/* The binary protocol's (PROTOCOL.md sec. 1). Exact at 16 MHz: the core sets U2X0 and
+ * UBRR0 = 3, 16e6 / (8 * 4) = 500000 (DS40002061 table 20-1), where 115200 gives
+ * UBRR0 = 16, 117647 baud, 2.1% fast: past the receiver's recommended +-1.5% (table
+ * 20-3) for the host's commands. The CP2104 makes 500000 exactly too (48 MHz / 96, its
+ * data sheet sec. 6.1). */
+#define EB_BAUD 500000ul
 
 /* Measured with firmware/sim/boardsim at 100 kHz (README.md, "Rate limits"): read
  * 11441 (RAW, 200 Hz) and 10423 (FUSED, 100 Hz) besides the bus, compute + send
- * 3857 + 3772 (RAW) and 38817 + 2575 (FUSED), with some margin. */
+ * 3857 + 3772 (RAW) and 38817 + 2575 (FUSED at 100 Hz; 42688 in all at 161 Hz, the
+ * UART's interrupts falling into the phases), with some margin. */
 #define EB_READ_CYCLES 13000u
 #define EB_RAW_CYCLES 7700u
-#define EB_FUSED_CYCLES 42500u
+#define EB_FUSED_CYCLES 44000u
 /* I2C bits: 9 SCL periods a byte (8 bits and the acknowledge, NXP UM10204 sec. 3.1.6)
  * and one per START, repeated START or STOP condition. The MPU-9250's burst (address,
  * register, address again, 18 bytes from INT_PIN_CFG, imu.cpp) is (3 + 18) x 9 + 3;
