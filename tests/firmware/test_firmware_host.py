@@ -336,13 +336,13 @@ def test_rate_limits_follow_the_clocks_as_worked_by_hand(lib):
     reads a second 100 x 102 x 160 = 1632000, so 90% of 16 MHz holds
     (14400000 - 1632000) / 55900 = 228.4 samples a second; the link at 115200 baud
     (really 117647) carries 117647 / 10 x 0.9 / 32 = 330.9, so RAW is CPU-bound. FUSED reads
-    no magnetometer: 13000 + 30720 + 44000 + 22 x 140 = 90800 cycles, 158.6 a second. At
+    no magnetometer: 13000 + 30720 + 42500 + 22 x 140 = 89300 cycles, 161.3 a second. At
     400 kHz (40 cycles a bit) RAW is link-bound at 115200 baud."""
     rate = lambda mode, i2c, baud: lib.eb_max_rate_hz(mode, 16_000_000, i2c, baud)  # noqa: E731
     assert rate(0, 100_000, 115200) == 228
-    assert rate(1, 100_000, 115200) == 158
+    assert rate(1, 100_000, 115200) == 161
     assert rate(0, 400_000, 115200) == 330
-    assert rate(1, 400_000, 115200) == 14_400_000 // (13000 + 192 * 40 + 44000 + 22 * 140)
+    assert rate(1, 400_000, 115200) == 14_400_000 // (13000 + 192 * 40 + 42500 + 22 * 140)
     assert rate(0, 400_000, 500_000) == (14_400_000 - 100 * 102 * 40) // (13000 + 192 * 40 + 7700 + 32 * 140)
 
 

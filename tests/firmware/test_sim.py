@@ -489,8 +489,10 @@ def test_rates_beyond_the_limit_are_refused_and_the_limit_holds_the_measured_cyc
     assert len(samples) >= fused_top and stats.dropped == 0
     phases = report["phases"]
     assert phases["read"]["mean_cycles_without_i2c_bus"] <= budget("EB_READ_CYCLES")
+    # the UART's interrupts for a frame's bytes fall into these phases: the budget counts them apart
+    frame = len(P.encode_fused(P.FusedSample(0.0, 0, 0, (1.0, 0.0, 0.0, 0.0), 0.0)))
     fused = phases["compute"]["mean_cycles"] + phases["send"]["mean_cycles"]
-    assert fused <= budget("EB_FUSED_CYCLES"), fused
+    assert fused <= budget("EB_FUSED_CYCLES") + frame * budget("EB_UART_ISR_CYCLES"), fused
     scl_cycles = 16_000_000 // report["i2c"]["scl_hz"]  # the harness times the real bus
     assert phases["read"]["i2c_bus_cycles"] / phases["read"]["count"] <= budget("EB_MPU_BITS") * scl_cycles
 

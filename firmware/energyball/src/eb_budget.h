@@ -44,11 +44,11 @@ extern "C" {
 
 /* Measured with firmware/sim/boardsim at 100 kHz (README.md, "Rate limits"): read
  * 11441 (RAW, 200 Hz) and 10423 (FUSED, 100 Hz) besides the bus, compute + send
- * 3857 + 3772 (RAW) and 38817 + 2575 (FUSED at 100 Hz; 42688 in all at 161 Hz, the
- * UART's interrupts falling into the phases), with some margin. */
+ * 3857 + 3772 (RAW) and 38817 + 2575 (FUSED), with some margin; at 500000 baud the
+ * UART's interrupts (EB_UART_ISR_CYCLES a byte, counted apart) fall into these phases. */
 #define EB_READ_CYCLES 13000u
 #define EB_RAW_CYCLES 7700u
-#define EB_FUSED_CYCLES 44000u
+#define EB_FUSED_CYCLES 42500u
 /* I2C bits: 9 SCL periods a byte (8 bits and the acknowledge, NXP UM10204 sec. 3.1.6)
  * and one per START, repeated START or STOP condition. The MPU-9250's burst (address,
  * register, address again, 18 bytes from INT_PIN_CFG, imu.cpp) is (3 + 18) x 9 + 3;
