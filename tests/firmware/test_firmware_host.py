@@ -509,6 +509,16 @@ def test_bias_is_the_mean_when_still(lib):
     assert not lib.eb_still_is_still(C.byref(still_of(lib, zip(gyr[:100].tolist(), acc.tolist()))))
 
 
+@pytest.mark.parametrize("offset_dps, still", [(34.0, True), (-34.0, True), (36.0, False), (57.3, False)])
+def test_a_steady_turn_at_boot_is_no_bias(lib, offset_dps, still):
+    """No spread, but a mean beyond the MPU-9250's zero-rate tolerance (+-5 deg/s at 25 degC,
+    +-30 more over temperature, PS-MPU-9250A-01 table 1: 35 deg/s) is a board turning."""
+    rng = np.random.default_rng(11)
+    gyr = rng.normal((round(offset_dps * 16.4), 3, -2), 1.0, (128, 3)).round().astype(int)
+    acc = rng.normal((0, 0, 2048), 3, (128, 3)).round().astype(int)
+    assert bool(lib.eb_still_is_still(C.byref(still_of(lib, zip(gyr.tolist(), acc.tolist()))))) == still
+
+
 def test_bias_record_round_trips_and_rejects_corruption(lib):
     rec = C.create_string_buffer(12)
     lib.eb_bias_pack(rec, (C.c_int16 * 3)(30, -12, -32768))

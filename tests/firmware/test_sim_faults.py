@@ -12,13 +12,16 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 import serial
 
 from tracker import protocol as P
 from tracker.board import acc_lsb, counts
+from tracker.link import Link, LinkSettings
 
-from .test_sim import BOOT_S, boardsim, elf, run_to_end, running_board, _boardsim_fails  # noqa: F401
+from .test_sim import (BOOT_S, SKETCH_STARTS_BY_S, boardsim, elf, run_to_end,  # noqa: F401
+                       running_board, _boardsim_fails)
 
 F_CPU = 16_000_000
 RATE_HZ = 200
@@ -143,3 +146,30 @@ def test_an_imu_supply_glitch_never_yields_wrong_data(boardsim, elf, tmp_path):
 ])
 def test_bad_fault_option_is_a_clear_error(boardsim, tmp_path, args, words):
     _boardsim_fails(boardsim, str(tmp_path / "unused.elf"), *args, words=words)
+
+
+def test_fused_mode_integrates_the_time_of_samples_it_could_not_take(boardsim, elf, tmp_path):
+    """A steady turn of 1 rad/s about the vertical in FUSED mode; the IMU's supply drops out
+    and its set-up again stalls the loop for about 110 ms. The samples due meanwhile are
+    skipped (OVERRUN), but their time is not: across the gap the fused yaw must turn at the
+    rate it turned before, not by one sample period's worth (a tenth of it)."""
+    turn_from = SKETCH_STARTS_BY_S + 0.5  # still through the boot after the host's open
+    csv = tmp_path / "turn.csv"
+    csv.write_text("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.81\n"
+                   f"{turn_from},0,0,0,0,0,9.81\n{turn_from + 0.001},0,0,1,0,0,9.81\n")
+    with running_board(boardsim, elf, tmp_path, "--motion", str(csv), "--interp", "linear",
+                       "--no-noise", "--flex-mv", FLEX_MV, "--imu-glitch-at", str(turn_from + 1.0),
+                       *TYPICAL_STARTUP) as board:
+        with Link(LinkSettings(port=str(board.link), reconnect=False, mode=P.Mode.FUSED,
+                               rate_hz=100)) as link:
+            samples = [x for x in link.samples(SKETCH_STARTS_BY_S + 2.5) if isinstance(x, P.FusedSample)]
+        board.report()
+    t = np.array([x.t for x in samples])
+    yaw = np.unwrap([2 * np.arctan2(x.q[3], x.q[0]) for x in samples])
+    gaps = np.flatnonzero(np.diff(t) > 0.05)
+    assert len(gaps) == 1, f"gaps in the fused stream: {np.diff(t)[gaps]}"
+    i = gaps[0]
+    before = (yaw[i] - yaw[i - 10]) / (t[i] - t[i - 10])  # the filter's yaw rate
+    across = (yaw[i + 1] - yaw[i]) / (t[i + 1] - t[i])
+    assert 0.8 < before < 1.1 and t[i + 1] - t[i] > 0.1, (before, t[i + 1] - t[i])
+    assert across == pytest.approx(before, rel=0.15), (across, before)

@@ -1,5 +1,7 @@
 #include "eb_bias.h"
 
+#include <math.h>
+
 #include "eb_protocol.h"
 
 void eb_still_init(eb_still_t *s)
@@ -37,6 +39,8 @@ bool eb_still_is_still(const eb_still_t *s)
         float variance = (float)s->sq[i] / s->n - mean * mean;
         float limit = i < 3 ? EB_STILL_GYR_SD : EB_STILL_ACC_SD;
         if (variance > limit * limit)
+            return false;
+        if (i < 3 && fabsf((float)s->first[i] + mean) > EB_STILL_GYR_MEAN_MAX)
             return false;
     }
     return true;

@@ -24,6 +24,11 @@ extern "C" {
  * = 4.1 counts (table 2). In counts at the boot full scales. */
 #define EB_STILL_GYR_SD 4.2f
 #define EB_STILL_ACC_SD 16.4f
+/* A steady turn has no spread: a mean rate beyond the chip's zero-rate output tolerance,
+ * +-5 deg/s at 25 degC and up to +-30 deg/s more over -40..85 degC (PS-MPU-9250A-01
+ * table 1), so 35 deg/s x 16.4 LSB/(deg/s), is a board turning, not a bias (the host's
+ * start-up hold draws the same line, tracker/calibration.py max_bias). */
+#define EB_STILL_GYR_MEAN_MAX 574
 /* Deviations from the first sample are clamped to this before squaring, so the sums
  * fit 32 bits; any axis that moves so far is far from still anyway. */
 #define EB_STILL_CLAMP 2047
@@ -36,7 +41,8 @@ typedef struct {
 
 void eb_still_init(eb_still_t *s);
 void eb_still_add(eb_still_t *s, const int16_t gyr[3], const int16_t acc[3]);
-/* Whether EB_BIAS_SAMPLES samples were added and every axis's spread is within its limit. */
+/* Whether EB_BIAS_SAMPLES samples were added, every axis's spread is within its limit and
+ * the gyroscope's mean within EB_STILL_GYR_MEAN_MAX. */
 bool eb_still_is_still(const eb_still_t *s);
 /* The mean gyroscope reading, rounded: the bias in counts. */
 void eb_still_mean(const eb_still_t *s, int16_t bias[3]);
