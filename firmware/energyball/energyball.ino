@@ -410,8 +410,9 @@ static void show_status_led()
 /* ------------------------------------------------------------ watchdog */
 
 /* A hang (a wait that never ends, a corrupted return address) resets the board.
- * The longest legitimate stretch without wdt_reset() is the IMU's set-up, about
- * 210 ms (WHO_AM_I within the start-up time, 100 ms after H_RESET). */
+ * The longest legitimate stretch without wdt_reset() is the IMU's set-up and the
+ * gyroscope's settling before the boot bias, about 310 ms (WHO_AM_I within the
+ * start-up time, 100 ms after H_RESET, EB_BIAS_SETTLE_MS). */
 static const uint8_t WATCHDOG_PERIOD = WDTO_500MS;
 
 /* After a watchdog reset the watchdog stays on at its shortest period (16 ms), as
