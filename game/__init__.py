@@ -1,1 +1,1 @@
-"""EnergyBall game: avatar, gestures, arena, rendering."""
+"""EnergyBall game: world/ (the arena), body/ (the player), sim/ (simulated players), ui/ (the pygame shell)."""

@@ -43,7 +43,7 @@ GESTURES = Ranged(int, 1, 1_000)
 
 def _port(text: str) -> str:
     """``--port``: a name the saved settings can hold (the input choice is remembered)."""
-    from game.preferences import Preferences
+    from game.ui.preferences import Preferences
     try:
         Preferences(input=text)
     except ValueError as e:
@@ -113,7 +113,7 @@ def cmd_play(args: argparse.Namespace) -> int:
         print(HEADLESS_HELP, file=sys.stderr)
         return 1
     import pygame
-    from .app import App
+    from .ui.app import App
     try:
         app = App(input_choice=_input_choice(args), seed=args.seed)
     except pygame.error as e:
@@ -123,7 +123,7 @@ def cmd_play(args: argparse.Namespace) -> int:
 
 def _profile(path: str | None):
     """The simulated player's profile file (defaults when None), or a UsageError saying what is wrong."""
-    from .motion_model import PlayerProfile
+    from .sim.motion_model import PlayerProfile
     try:
         return PlayerProfile.load(path) if path else PlayerProfile()
     except (ValueError, OSError) as e:  # a missing, broken or wrong profile file
@@ -132,7 +132,7 @@ def _profile(path: str | None):
 
 def cmd_headless(args: argparse.Namespace) -> int:
     from tracker.board import Faults
-    from .headless import configs, run_matches
+    from .sim.headless import configs, run_matches
     try:
         faults = Faults.parse(args.faults or "")
     except ValueError as e:
@@ -158,7 +158,7 @@ def cmd_headless(args: argparse.Namespace) -> int:
 
 
 def cmd_shots(args: argparse.Namespace) -> int:
-    from .showcase import shots
+    from .ui.showcase import shots
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise UsageError(f"--out {args.out} is not a folder: the screenshots go into a folder, one PNG each")
     try:
@@ -171,7 +171,7 @@ def cmd_shots(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from .showcase import bench
+    from .ui.showcase import bench
     report = bench(progress=lambda text: print(text, file=sys.stderr, flush=True))
     print(json.dumps(report) if args.json else "\n".join(f"{k:26s} {v}" for k, v in report.items()))
     return 0
@@ -195,8 +195,8 @@ def envelope_table(players: dict[str, dict]) -> str:
 
 
 def cmd_gestures_eval(args: argparse.Namespace) -> int:
-    from .gesture_eval import evaluate, evaluate_envelope
-    from .motion_model import catalogue
+    from .sim.gesture_eval import evaluate, evaluate_envelope
+    from .sim.motion_model import catalogue
     progress = lambda text: print(text, file=sys.stderr, flush=True)  # noqa: E731
     if args.envelope and getattr(args, "profile", None):
         raise UsageError("--envelope runs every catalogue player; --profile runs one: give one of them")
@@ -216,7 +216,7 @@ def cmd_gestures_eval(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .bot import DIFFICULTIES
+    from .sim.bot import DIFFICULTIES
 
     parser = Parser(prog="energyball", description=(
         "The EnergyBall game: throw energy balls at zombies with your arm (a tracker board, "

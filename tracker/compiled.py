@@ -16,7 +16,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent  # the folder holding the tracker and game packages
 PACKAGES = ("tracker", "game")
 REBUILD = ("rebuild with `ENERGYBALL_COMPILE=1 .venv/bin/pip install -e .`, or go back to pure "
-           "Python with `rm -f *.so tracker/*.so tracker/fusion/*.so game/*.so`")
+           "Python with `rm -f *.so tracker/*.so tracker/fusion/*.so game/*/*.so`")
 
 
 def _extensions(root: Path) -> dict[str, Path]:

@@ -92,7 +92,7 @@ MAG_NOISE_RMS_UT = 0.6
 MAG_NOISE_DENSITY = MAG_NOISE_RMS_UT / math.sqrt(100.0)  # uT/sqrt(Hz)
 WARMUP_SPAN_S = 600.0  # ErrorModel.warmup is the offset's change over this long after power-on
 
-# The "typical" board and player's sensors (realistic_errors; game.motion_model.PlayerProfile's defaults).
+# The "typical" board and player's sensors (realistic_errors; game.sim.motion_model.PlayerProfile's defaults).
 # Where each figure comes from: the docstrings of ErrorModel, MagneticErrors, FlexDynamics, realistic_errors.
 TYPICAL_GYRO_BIAS_DPS = 1.0  # each gyro axis's offset drawn within +-this (PS-MPU-9250A-01: +-5 at most)
 TYPICAL_GYRO_WARMUP_DPS = 1.0  # about 4 degC of warming at the data sheet's 0.24 deg/s per degC

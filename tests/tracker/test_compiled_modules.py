@@ -22,10 +22,10 @@ def make(root, name, source_mtime, extension_mtime):
 
 def test_extensions_are_found_and_an_edited_source_is_stale(tmp_path):
     make(tmp_path, "tracker.fusion.default", 1000, 2000)  # built after its source: fine
-    make(tmp_path, "game.arena", 3000, 2000)  # edited after the build: stale
+    make(tmp_path, "game.world.arena", 3000, 2000)  # edited after the build: stale
     (tmp_path / "tracker" / "plain.py").write_text("y = 2\n")  # never compiled
-    assert compiled.modules(tmp_path) == ["game.arena", "tracker.fusion.default"]
-    assert compiled.stale(tmp_path) == [os.path.join("game", "arena.py")]
+    assert compiled.modules(tmp_path) == ["game.world.arena", "tracker.fusion.default"]
+    assert compiled.stale(tmp_path) == [os.path.join("game", "world", "arena.py")]
 
 
 def test_a_pure_checkout_has_no_compiled_modules(tmp_path):

@@ -111,7 +111,7 @@ def test_its_raw_samples_are_the_boards_quantisation_of_its_readings():
 
 
 def test_the_extremes_are_the_catalogues_worst_board():
-    from game.motion_model import catalogue
+    from game.sim.motion_model import catalogue
 
     worst, ours = catalogue()["worst_plausible"].sensor_errors(), extreme_errors()
     assert ours.acc == replace(worst.acc, scale_max=SCALE_TOLERANCE)

@@ -1,0 +1,1 @@
+"""Simulated players: the motion model, the bot, headless matches and gesture evaluation."""

@@ -1,0 +1,233 @@
+"""A simulated player for headless matches: it sees the arena, picks targets, moves its arm like a person.
+
+The bot plays through the same screens as a person. It presses Enter at the
+menu, and in the guided calibration it hangs its arm still, then raises it
+forward when the screen asks. Then it plays. Every game frame,
+:meth:`Bot.act` looks at what a player sees and answers with keys to press
+and the walking input. Its arm moves only through the motion it writes into a
+:class:`~game.sim.motion_model.Script`: minimum-jerk reaches, the load, spin and
+launch of each throw, tremor, idle fidgeting. The headless match feeds that
+motion to the sensor simulator. The game then learns what the arm did only
+from the board's decoded samples, as with a person.
+
+How it plays:
+  Threat. Each walking zombie's threat is its time to contact: the distance
+  left to its reach, over its speed. The most threatening one is the target.
+  Facing. Outside +-45 deg of the body's facing, the bot first turns toward
+  the target (the keyboard's turn keys). It never turns while the arm is up,
+  which would swing the aim.
+  Throwing. After its reaction time, it raises the arm at the target, flexes
+  the elbow, spins and snaps it straight (:meth:`Script.gesture`). Aims are
+  azimuth and elevation from the shoulder to the target's chest. Better
+  players lead a walking zombie to where it will be at the launch. Each
+  angle gets Gaussian noise. With reloads, one raise throws at the next
+  targets too.
+  Walking. When a zombie would reach it within ``FLEE_S`` (2.5 s), it walks away from
+  the near zombies and back toward the middle of the arena until it is a
+  third further clear. It does not walk during a throw (which would swing the aim
+  off), unless a zombie is about to strike.
+  Fatigue. Per minute played, its movements slow by ``fatigue_per_min`` and
+  its aim noise grows by the same fraction.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Sequence
+
+import numpy as np
+
+from ..world.arena import Arena
+from ..world.arena_model import Controls, Player, Zombie
+from .motion_model import SPEED_RANGE, PlayerProfile, Script, TrueLaunch
+
+CHEST_M = 1.2  # the height the bot aims at on a zombie (1.8 m tall)
+FACING_DEG = 45.0  # a target further off the body's facing is turned toward first
+NEAR_M = 6.0  # zombies within this push the fleeing bot away
+CENTRE_PULL = 0.6  # beyond this fraction of the arena's radius the fleeing bot heads inward too
+THROW_S = 2.7  # the typical time from the decision to a launch at speed 1 (reach, load, spin)
+RELOAD_S = 1.3  # and from one launch to the next of the same raise
+IDLE_S = (1.0, 2.5)  # fidgeting between waves, seconds
+FLEE_S = 2.5  # the bot walks away when a zombie would reach it within this time
+FLEE_UNTIL = 1.3  # and walks on until the nearest zombie is this many times FLEE_S away
+STRIKE_S = 0.6  # a zombie this close to contact makes the bot walk even mid-throw
+FORGET_S = 1.0  # the motion script keeps this much past (the simulator never looks further back)
+
+
+@dataclass(frozen=True)
+class Skill:
+    """How well the bot plays: one difficulty level."""
+
+    reaction_s: float  # from seeing a change to starting to move (visual choice reaction time)
+    aim_noise_deg: float  # standard deviation of the aim, in azimuth and in elevation
+    speed: float  # movement speed factor (times the profile's)
+    fatigue_per_min: float  # per minute played: movements slow and aim noise grows by this fraction
+    leads_targets: bool  # aims where a walking zombie will be at the launch
+    reloads: int  # extra launches at further targets per raise of the arm
+
+
+DIFFICULTIES: dict[str, Skill] = {
+    "easy": Skill(reaction_s=0.55, aim_noise_deg=2.5, speed=0.8, fatigue_per_min=0.05,
+                  leads_targets=False, reloads=0),
+    "normal": Skill(reaction_s=0.40, aim_noise_deg=1.2, speed=1.0, fatigue_per_min=0.03,
+                    leads_targets=True, reloads=1),
+    "hard": Skill(reaction_s=0.28, aim_noise_deg=0.5, speed=1.3, fatigue_per_min=0.02,
+                  leads_targets=True, reloads=2),
+}
+
+
+@dataclass(frozen=True)
+class Action:
+    """What the bot does this frame: keys pressed (by name: "return", "r") and the walking input."""
+
+    keys: tuple[str, ...] = ()
+    controls: Controls = Controls()
+
+
+@dataclass(frozen=True)
+class Screen:
+    """What the bot sees of the app: which screen, and the calibration's step."""
+
+    name: str  # "menu", "calibration", "play", "game_over", or another screen's name
+    step: str = ""  # the calibration's: "down", "forward", "done", "failed"
+
+
+class Bot:
+    """A simulated player; its arm motion is :attr:`script`, its intended launches :attr:`launches`."""
+
+    def __init__(self, skill: Skill, profile: PlayerProfile = PlayerProfile(), seed: int = 0) -> None:
+        self.skill = skill
+        self.profile = replace(profile, speed=_speed(profile.speed * skill.speed))
+        self.script = Script(self.profile, seed)
+        self.rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(1,)))
+        self.play_started: float | None = None
+        self._step_seen = ""  # the calibration step the bot last reacted to
+        self._lowered_at: float | None = None  # when the arm is back down after calibrating
+        self.fleeing = False
+
+    @property
+    def launches(self) -> list[TrueLaunch]:
+        return self.script.launches
+
+    # ------------------------------------------------------------ the loop
+
+    def act(self, t: float, screen: Screen, arena: Arena, shoulder: Sequence[float]) -> Action:
+        """This frame's keys and walking at simulated time ``t``; arm moves start a reaction time later."""
+        start = t + self.skill.reaction_s
+        if screen.name == "menu":
+            return Action(keys=("return",))
+        if screen.name == "calibration":
+            return self._calibrate(t, start, screen.step)
+        if screen.name != "play":
+            return Action()
+        if self.play_started is None:
+            self.play_started = t
+        return self._play(t, start, arena, shoulder)
+
+    def _calibrate(self, t: float, start: float, step: str) -> Action:
+        """Arm down and still; forward when asked; down again and Enter when done (R after a failure)."""
+        if step != self._step_seen:
+            self._step_seen = step
+            if step == "forward":
+                self.script.wait_until(start)
+                self.script.reach(0.0, 90.0, kind="calibration")
+            elif step in ("done", "failed"):
+                self.script.wait_until(start)
+                self._lowered_at = self.script.reach(0.0, 0.0, kind="calibration")
+        if step in ("done", "failed") and self._lowered_at is not None and t >= self._lowered_at:
+            self._lowered_at = None
+            return Action(keys=("return",) if step == "done" else ("r",))
+        return Action()
+
+    def _play(self, t: float, start: float, arena: Arena, shoulder: Sequence[float]) -> Action:
+        player = arena.player
+        walking = arena.alive_zombies
+        busy = t < self.script.now  # the arm is on what was planned
+        soonest = min((self._time_to_contact(z, player, arena) for z in walking), default=math.inf)
+        # Walk away from a close zombie until well clear (hysteresis); mid-throw only when it is
+        # about to strike, since walking swings a throw's aim off its target.
+        self.fleeing = soonest < (FLEE_UNTIL * FLEE_S if self.fleeing else FLEE_S)
+        if self.fleeing and (not busy or soonest < STRIKE_S):
+            return Action(controls=self._flee(player, walking, arena.settings.arena_radius_m))
+        if busy:
+            return Action()
+        minutes = (t - (self.play_started or t)) / 60.0
+        self._tire(minutes)
+        self.script.forget_before(t - FORGET_S)
+        if not walking:
+            self.script.wait_until(start)
+            self.script.idle(float(self.rng.uniform(*IDLE_S)))
+            return Action()
+        threats = sorted(walking, key=lambda z: self._time_to_contact(z, player, arena))
+        ahead = (start - t) + THROW_S / self.script.profile.speed
+        aims = []
+        for k, zombie in enumerate(threats[:1 + self.skill.reloads]):
+            az, el = self._aim(zombie, arena, shoulder, ahead + k * RELOAD_S / self.script.profile.speed)
+            if abs(az) > FACING_DEG:
+                break
+            noise = self.skill.aim_noise_deg * (1.0 + self.skill.fatigue_per_min * minutes)
+            aims.append((az + float(self.rng.normal(0.0, noise)), el + float(self.rng.normal(0.0, noise))))
+        if not aims:  # turn toward the threat first (a positive turn is to the left)
+            azimuth, _ = self._aim(threats[0], arena, shoulder, 0.0)
+            return Action(controls=Controls(turn=-math.copysign(1.0, azimuth)))
+        self.script.wait_until(start)
+        self.script.gesture(aims)
+        return Action()
+
+    # ------------------------------------------------------------ judgement
+
+    def _tire(self, minutes: float) -> None:
+        """Movements slow with minutes played (fatigue)."""
+        speed = self.profile.speed / (1.0 + self.skill.fatigue_per_min * minutes)
+        self.script.profile = replace(self.profile, speed=_speed(speed))
+
+    @staticmethod
+    def _time_to_contact(zombie: Zombie, player: Player, arena: Arena) -> float:
+        gap = math.hypot(zombie.x - player.x, zombie.y - player.y) - arena.settings.contact_distance_m
+        return max(0.0, gap) / max(zombie.speed, 1e-6)
+
+    def _aim(self, zombie: Zombie, arena: Arena, shoulder: Sequence[float], ahead_s: float
+             ) -> tuple[float, float]:
+        """(azimuth, elevation) in degrees from the shoulder to the zombie's chest, ``ahead_s`` from now
+        if the bot leads its targets (the zombie walks straight at the player, stopping at reach)."""
+        x, y, player = zombie.x, zombie.y, arena.player
+        if self.skill.leads_targets and ahead_s > 0:
+            dx, dy = player.x - x, player.y - y
+            gap = math.hypot(dx, dy)
+            walk = min(zombie.speed * ahead_s, max(0.0, gap - arena.settings.contact_distance_m))
+            if gap > 1e-9:
+                x, y = x + dx / gap * walk, y + dy / gap * walk
+        dx, dy, dz = x - shoulder[0], y - shoulder[1], CHEST_M - shoulder[2]
+        c, s = math.cos(player.yaw), math.sin(player.yaw)
+        right, forward = dx * c + dy * s, -dx * s + dy * c  # yaw 0 faces +y; right = (cos, sin)
+        azimuth = math.degrees(math.atan2(right, forward))
+        elevation = 90.0 + math.degrees(math.atan2(dz, math.hypot(right, forward)))
+        return azimuth, elevation
+
+    @staticmethod
+    def _flee(player: Player, walking: list[Zombie], arena_radius_m: float) -> Controls:
+        """Walk away from the near zombies, and inward near the arena's edge."""
+        wx = wy = 0.0
+        for z in walking:
+            dx, dy = player.x - z.x, player.y - z.y
+            d2 = dx * dx + dy * dy
+            if d2 < NEAR_M * NEAR_M:
+                wx, wy = wx + dx / max(d2, 0.01), wy + dy / max(d2, 0.01)
+        r = math.hypot(player.x, player.y)
+        edge = arena_radius_m * CENTRE_PULL
+        if r > edge:
+            push = math.hypot(wx, wy) or 1.0
+            wx, wy = wx - player.x / r * push, wy - player.y / r * push
+        norm = math.hypot(wx, wy)
+        if norm < 1e-9:
+            return Controls()
+        wx, wy = wx / norm, wy / norm
+        c, s = math.cos(player.yaw), math.sin(player.yaw)
+        return Controls(forward=-wx * s + wy * c, strafe=wx * c + wy * s)
+
+
+def _speed(speed: float) -> float:
+    """A movement speed factor within what a player profile allows."""
+    low, high = SPEED_RANGE
+    return min(high, max(low, speed))

@@ -1,0 +1,236 @@
+"""Measured gesture accuracy: simulated players through the real pipeline.
+
+Each trial scripts a player (:mod:`game.sim.motion_model`: minimum-jerk reaches,
+reaction times, tremor, idle fidgeting and walking), simulates the board's
+sensors on them (:mod:`tracker.sim`, MPU-9250 errors, the flex circuit),
+quantises and frames every sample as the firmware does, and decodes the
+bytes. From there the game's own code runs: the ``default`` filter and flex
+tracker (:mod:`game.body.tracking`) with the board's six-pose accelerometer
+calibration (done once by its maker with the guided procedure, a simulated
+maker following its prompts on the same board),
+"hold still" and the two-pose wearing
+calibration (:mod:`game.body.wearing`), the avatar and the gesture machine. The
+launches it reports are matched to the ones the player made.
+
+Matching: a reported launch belongs to a true one when it comes between the
+start of the elbow's straightening (less 50 ms) and 400 ms after the elbow
+crossed the launch threshold; each true launch takes at most one. Latency is
+the time from that crossing to the report; aim error the angle between the
+reported direction and where the arm truly pointed. A report matching none is
+a false launch; those inside idle stretches count toward the idle rate.
+"""
+
+from __future__ import annotations
+
+import math
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from typing import Callable, Sequence
+
+import numpy as np
+
+from tracker import protocol as P
+from tracker.calibration import BoardCalibration
+from tracker.maker_sim import SimulatedMaker, calibrate
+from tracker.sim import Simulator
+from tracker.sim_board import RATE_HZ, SimBoard
+
+from ..body.avatar import Avatar, BodySettings
+from ..body.gestures import GestureEvent, GestureMachine
+from ..body.pose import ArmPose
+from ..body.tracking import Tracking
+from ..body.wearing import arm_down_then_forward
+from .motion_model import PlayerProfile, Session, TrueLaunch, session
+
+MATCH_BEFORE_S = 0.05
+MATCH_AFTER_S = 0.4
+POSE_WINDOW_S = 1.0  # the last second of each calibration hold is used
+CHUNK = 64  # bytes per decoder feed, about what a serial read returns
+LATE_FRACTION = 0.75  # launches after this share of a session count as "late" (drift shows there)
+
+
+@dataclass
+class TrialResult:
+    """What one simulated session produced."""
+
+    true_launches: int = 0
+    matched: int = 0
+    false_launches: int = 0
+    idle_false_launches: int = 0
+    idle_minutes: float = 0.0
+    latencies_ms: list[float] = field(default_factory=list)
+    aim_errors_deg: list[float] = field(default_factory=list)
+    late_aim_errors_deg: list[float] = field(default_factory=list)  # launches in the session's last quarter
+    calibration: str = ""  # what the calibrations said, for the user
+    calibration_ok: bool = False  # the maker's, the hold's and the wearing calibration's first attempts all worked
+
+
+def board_stream(sim_session: Session, profile: PlayerProfile, seed: int) -> list[P.RawSample]:
+    """The session as the host receives it: simulated, quantised, framed, sent, decoded."""
+    sim = Simulator(profile.chain(), sim_session.motion, profile.sensor_errors(),
+                    profile.flex_sensor(), seed=seed)
+    samples_due = round(sim_session.duration_s * RATE_HZ)
+    wire = SimBoard(sim, rate_hz=RATE_HZ).run_until((samples_due - 1) / RATE_HZ)
+    decoder = P.FrameDecoder()
+    samples: list[P.RawSample] = []
+    for i in range(0, len(wire), CHUNK):
+        samples += decoder.feed(wire[i:i + CHUNK])  # type: ignore[arg-type]
+    return samples
+
+
+def maker_calibration(profile: PlayerProfile, seed: int) -> tuple[BoardCalibration, str | None]:
+    """The calibrations a maker does once per board (README), simulated on the same board.
+
+    Exactly what ``armtracker calibrate accel`` and ``calibrate mag`` run: the
+    six-pose procedure (:class:`tracker.accel_procedure.AccelProcedure`) and
+    the magnetometer procedure (:class:`tracker.mag_procedure.MagProcedure`),
+    fed the board's quantised samples while a simulated maker
+    (:class:`tracker.maker_sim.SimulatedMaker`, the board's errors drawn from
+    the same seed as the session's) follows their prompts: lays the board on
+    each face in turn, then tumbles it through every orientation. No player
+    wears the board: no tremor, sway or strap reaches it. Returns the
+    calibration and None, or what it has and why a procedure failed (a
+    reported figure, never an exception).
+    """
+    cal, problems = calibrate(SimulatedMaker(profile.sensor_errors(), seed))
+    return cal, "; ".join(problems) or None
+
+
+def _within(t: float, interval: tuple[float, float], last_s: float | None = None) -> bool:
+    t0, t1 = interval
+    return (t1 - last_s if last_s else t0) <= t < t1
+
+
+def run_trial(profile: PlayerProfile, seed: int, gestures: int = 10, magnetometer: bool = True) -> TrialResult:
+    """One scripted session through the whole pipeline (``magnetometer`` False: 6D fusion).
+
+    The calibrations are tried once, as a player on the first evening does:
+    a failure is recorded (``calibration_ok`` false, the reason in
+    ``calibration``) and play goes on with what the pipeline has.
+    """
+    script = session(profile, seed, gestures=gestures)
+    samples = board_stream(script, profile, seed)
+    down, forward = script.calibration
+    board, maker_problem = maker_calibration(profile, seed)
+    tracking = Tracking(use_magnetometer=magnetometer, board=board)
+    avatar = Avatar(BodySettings(upper_arm_m=profile.upper_arm_m, forearm_m=profile.forearm_m))
+    machine = GestureMachine()
+    result = TrialResult(true_launches=len(script.launches))
+    still: list[P.RawSample] = []
+    down_poses: list[ArmPose] = []
+    forward_poses: list[ArmPose] = []
+    launches = []
+    calibrated = False
+    for s in samples:
+        if not calibrated and s.t >= down[1] and not down_poses:
+            # "Hold still" ended: learn the bias, then redo the hold with it.
+            bias, redone = tracking.hold_still(still)
+            down_poses = [p for p, x in zip(redone, still) if _within(x.t, down, POSE_WINDOW_S)]
+        pose = tracking.feed(s)
+        if not calibrated:
+            if _within(s.t, down):
+                still.append(s)
+            if _within(s.t, forward, POSE_WINDOW_S):
+                forward_poses.append(pose)
+            if s.t >= forward[1]:
+                outcome = arm_down_then_forward(avatar, down_poses, forward_poses)
+                said = [maker_problem] if maker_problem else []
+                result.calibration = "; ".join(said + [bias.message, outcome.message])
+                result.calibration_ok = maker_problem is None and bias.ok and outcome.ok
+                avatar.wearing = outcome.wearing
+                calibrated = True
+            continue
+        launches += [e for e in machine.update(avatar.update(pose)) if e.kind == "launch"]
+    late_from = LATE_FRACTION * script.duration_s
+    score_launches(script.launches, script.idle_intervals, launches, result, late_from)
+    return result
+
+
+def score_launches(truth: Sequence[TrueLaunch], idle_intervals: Sequence[tuple[float, float]],
+                   launches: Sequence[GestureEvent], result: TrialResult,
+                   late_from: float = math.inf) -> list[TrueLaunch]:
+    """Match reported launches to the true ones (module docstring) into ``result``; the unmatched true ones.
+
+    The aim errors of launches made from ``late_from`` on also go to ``late_aim_errors_deg``.
+    """
+    unmatched = list(truth)
+    for event in launches:
+        match = next((x for x in unmatched
+                      if x.t_straight_start - MATCH_BEFORE_S <= event.t <= x.t_straight + MATCH_AFTER_S), None)
+        if match is None:
+            result.false_launches += 1
+            result.idle_false_launches += any(_within(event.t, i) for i in idle_intervals)
+            continue
+        unmatched.remove(match)
+        result.matched += 1
+        result.latencies_ms.append(1000.0 * (event.t - match.t_straight))
+        cos = float(np.clip(np.dot(event.direction, match.direction_body), -1.0, 1.0))
+        result.aim_errors_deg.append(math.degrees(math.acos(cos)))
+        if match.t_straight >= late_from:
+            result.late_aim_errors_deg.append(result.aim_errors_deg[-1])
+    result.idle_minutes = sum(t1 - t0 for t0, t1 in idle_intervals) / 60.0
+    return unmatched
+
+
+def _run(args: tuple[PlayerProfile, int, int, bool]) -> TrialResult:
+    return run_trial(*args)
+
+
+def _trials(players: dict[str, PlayerProfile], trials: int, seed: int, gestures: int,
+            progress: Callable[[str], None] | None, workers: int,
+            magnetometer: bool) -> dict[str, list[TrialResult]]:
+    """Every player's trials (seeds seed, seed + 1, ...), spread over ``workers`` processes."""
+    jobs = [(name, (profile, seed + k, gestures, magnetometer)) for name, profile in players.items() for k in range(trials)]
+    results: dict[str, list[TrialResult]] = {name: [] for name in players}
+    with ProcessPoolExecutor(max_workers=max(1, workers)) as pool:
+        for (name, _), r in zip(jobs, pool.map(_run, [job for _, job in jobs])):
+            results[name].append(r)
+            if progress:
+                who = f"{name}: " if len(players) > 1 else ""
+                progress(f"{who}trial {len(results[name])}/{trials}: {r.matched}/{r.true_launches} launches, "
+                         f"{r.false_launches} false" + ("" if r.calibration_ok else f"; {r.calibration}"))
+    return results
+
+
+def evaluate(profile: PlayerProfile, trials: int, seed: int, gestures: int = 10,
+             progress: Callable[[str], None] | None = None, workers: int = 2,
+             magnetometer: bool = True) -> dict:
+    """Run one player's trials (in parallel) and report the figures the README quotes."""
+    return summarise(_trials({"player": profile}, trials, seed, gestures, progress, workers,
+                             magnetometer)["player"])
+
+
+def evaluate_envelope(players: dict[str, PlayerProfile], trials: int, seed: int, gestures: int = 10,
+                      progress: Callable[[str], None] | None = None, workers: int = 2,
+                      magnetometer: bool = True) -> dict:
+    """Every player's report (the same seeds for each), by name: the envelope of the catalogue."""
+    results = _trials(players, trials, seed, gestures, progress, workers, magnetometer)
+    return {"players": {name: summarise(rs) for name, rs in results.items()}}
+
+
+def summarise(results: list[TrialResult]) -> dict:
+    """The JSON report over all trials."""
+    matched = sum(r.matched for r in results)
+    reported = matched + sum(r.false_launches for r in results)
+    true = sum(r.true_launches for r in results)
+    idle_minutes = sum(r.idle_minutes for r in results)
+    latency = [x for r in results for x in r.latencies_ms]
+    aim = [x for r in results for x in r.aim_errors_deg]
+    late = [x for r in results for x in r.late_aim_errors_deg]
+
+    def pct(values: list[float], q: float) -> float | None:
+        return round(float(np.percentile(values, q)), 2) if values else None
+
+    return {
+        "launch_precision": round(matched / reported, 4) if reported else None,
+        "launch_recall": round(matched / true, 4) if true else None,
+        "false_launches_per_min": round(sum(r.idle_false_launches for r in results) / idle_minutes, 4)
+        if idle_minutes else None,
+        "latency_ms_median": pct(latency, 50), "latency_ms_p95": pct(latency, 95),
+        "aim_error_deg_median": pct(aim, 50), "aim_error_deg_p95": pct(aim, 95),
+        "aim_error_deg_median_late": pct(late, 50),
+        "calibration_ok_rate": round(sum(r.calibration_ok for r in results) / len(results), 4)
+        if results else None,
+        "trials": len(results), "launches": true, "idle_minutes": round(idle_minutes, 2),
+        "false_launches": reported - matched,
+    }

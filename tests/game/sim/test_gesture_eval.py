@@ -1,0 +1,168 @@
+"""The gesture evaluation: matching worked by hand, and a short run of the real pipeline."""
+
+import functools
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from game.body.gestures import GestureEvent
+from game.sim.gesture_eval import TrialResult, board_stream, score_launches, run_trial, summarise
+from game.sim.motion_model import PlayerProfile, Segment, Session, TrueLaunch, session
+
+ROOT = Path(__file__).resolve().parents[3]
+
+
+def fake_session() -> Session:
+    launches = [TrueLaunch(10.0, 10.2, (0.0, 1.0, 0.0), 1.0), TrueLaunch(20.0, 20.15, (1.0, 0.0, 0.0), 1.0)]
+    return Session(None, 60.0, launches, [(30.0, 60.0)], None, [Segment("idle", 30.0, 60.0)])
+
+
+def launch(t, direction):
+    return GestureEvent("launch", t, direction, 1.0)
+
+
+def test_matching_worked_by_hand():
+    result = TrialResult(true_launches=2)
+    c, s = np.cos(np.radians(3)), np.sin(np.radians(3))
+    events = [launch(10.25, (s, c, 0.0)),   # 50 ms after the crossing, 3 deg off: a hit
+              launch(12.0, (0.0, 1.0, 0.0)),  # long after any launch, not idle: false
+              launch(40.0, (0.0, 1.0, 0.0))]  # in the idle stretch: false, and idle
+    truth = fake_session()
+    unmatched = score_launches(truth.launches, truth.idle_intervals, events, result)
+    assert unmatched == [truth.launches[1]]
+    assert (result.matched, result.false_launches, result.idle_false_launches) == (1, 2, 1)
+    assert result.latencies_ms == pytest.approx([50.0])
+    assert result.aim_errors_deg == pytest.approx([3.0])
+    assert result.idle_minutes == pytest.approx(0.5)
+    report = summarise([result])
+    assert report["launch_precision"] == pytest.approx(1 / 3, abs=1e-4)
+    assert report["launch_recall"] == 0.5
+    assert report["false_launches_per_min"] == 2.0
+    assert report["aim_error_deg_median_late"] is None  # no launch counted as late
+    assert report["calibration_ok_rate"] == 0.0  # the result never said its calibration worked
+
+
+def test_late_launches_are_those_made_in_the_last_quarter():
+    truth = fake_session()  # true launches cross at 10.2 s and 20.15 s
+    c, s = np.cos(np.radians(3)), np.sin(np.radians(3))
+    events = [launch(10.25, (s, c, 0.0)), launch(20.2, (1.0, 0.0, 0.0))]
+    result = TrialResult(true_launches=2, calibration_ok=True)
+    score_launches(truth.launches, truth.idle_intervals, events, result, late_from=15.0)
+    assert result.aim_errors_deg == pytest.approx([3.0, 0.0], abs=1e-6)
+    assert result.late_aim_errors_deg == pytest.approx([0.0], abs=1e-6)  # only the second
+    report = summarise([result, TrialResult(calibration_ok=False)])
+    assert report["aim_error_deg_median_late"] == 0.0
+    assert report["calibration_ok_rate"] == 0.5
+
+
+def test_a_failed_maker_calibration_is_a_reported_figure(monkeypatch):
+    from tracker import accel_procedure
+    from tracker.calibration import SixPoseResult
+
+    def refuse(poses, params=None):
+        return SixPoseResult(False, "pose +x moved", np.zeros(3), np.ones(3), np.eye(3), math.nan)
+
+    monkeypatch.setattr(accel_procedure, "six_pose_calibration", refuse)
+    result = run_trial(PlayerProfile(), 5, gestures=1)
+    assert not result.calibration_ok
+    assert result.calibration.startswith("six-pose calibration failed: pose +x moved")
+
+
+def test_the_board_stream_arrives_whole():
+    profile = PlayerProfile()
+    script = session(profile, seed=3, gestures=1, idle_s=1.0)
+    samples = board_stream(script, profile, 3)
+    assert len(samples) == round(script.duration_s * 200)
+    assert [s.seq for s in samples[:3]] == [0, 1, 2]
+    # hanging still at the start: the accelerometer feels about 1 g
+    assert 9.0 < np.linalg.norm(samples[10].acc) < 10.6
+
+
+def test_a_short_run_of_the_whole_pipeline_meets_the_targets():
+    results = [run_trial(PlayerProfile(), seed, gestures=4) for seed in (0, 1)]
+    assert all("calibrated" in r.calibration for r in results)
+    report = summarise(results)
+    assert report["launch_precision"] >= 0.99 and report["launch_recall"] >= 0.98
+    assert report["false_launches"] == 0
+    assert report["aim_error_deg_median"] <= 3.0
+    assert report["latency_ms_median"] <= 60.0
+
+
+def energyball(*args):
+    return subprocess.run([sys.executable, "-m", "game", *args], capture_output=True, text=True,
+                          cwd=ROOT, timeout=300)
+
+
+@pytest.mark.parametrize("content, words", [('{"mount_roll": 3}', "unknown key 'mount_roll'"),
+                                            ('{"speed": -1}', "speed must be"),
+                                            ("{not json", "not valid JSON")])
+def test_a_bad_profile_is_one_clear_line(tmp_path, content, words):
+    path = tmp_path / "p.json"
+    path.write_text(content)
+    r = energyball("gestures-eval", "--profile", str(path))
+    assert r.returncode != 0 and "Traceback" not in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and words in r.stderr
+
+
+def test_gestures_eval_json_shape():
+    r = energyball("gestures-eval", "--trials", "1", "--gestures", "2", "--json")
+    assert r.returncode == 0, r.stderr
+    report = json.loads(r.stdout)
+    assert {"launch_precision", "launch_recall", "false_launches_per_min", "latency_ms_median",
+            "latency_ms_p95", "aim_error_deg_median", "aim_error_deg_p95", "aim_error_deg_median_late",
+            "calibration_ok_rate", "trials"} <= set(report)
+
+
+def test_envelope_and_profile_do_not_go_together(tmp_path):
+    path = tmp_path / "p.json"
+    path.write_text("{}")
+    r = energyball("gestures-eval", "--envelope", "--profile", str(path))
+    assert r.returncode == 1 and "Traceback" not in r.stderr
+    assert "--envelope" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("name", ["typical", "magnetic_room"])
+def test_the_simulated_maker_recovers_the_boards_own_errors(name):
+    from game.sim.gesture_eval import maker_calibration
+    from game.sim.motion_model import catalogue
+    from tracker.sim import Chain, LinkSpec, Motion, SensorSpec, Simulator
+
+    profile = catalogue()[name]
+    cal, problem = maker_calibration(profile, seed=9)
+    assert problem is None
+    board = Chain((LinkSpec("board", 0.0),), (SensorSpec("imu", 0, (0.0, 0.0, 0.0)),))
+    still = Motion(lambda t: np.tile([1.0, 0.0, 0.0, 0.0], (len(t), 1)), lambda t: np.zeros((len(t), 0)))
+    truth = Simulator(board, still, profile.sensor_errors(), seed=9).simulate(0.1, 200.0)  # the errors it drew
+    assert np.linalg.norm(cal.mag_hard_iron - truth.hard_iron[0]) < 0.5  # uT, of 30-150 uT
+    inverse = np.linalg.inv(truth.soft_iron[0])
+    w_true = inverse / np.linalg.det(inverse) ** (1 / 3)  # the fit's scale: det W = 1
+    assert np.abs(cal.mag_soft_iron - w_true).max() < 0.01
+    g = 9.80665
+    acc_offset = truth.offset["acc"][0]
+    assert np.abs(cal.acc_offset - acc_offset).max() < 0.005 * g  # 5 mg, of up to 60 mg
+
+
+def test_without_the_magnetometer_the_drift_state_holds_the_aim_better(monkeypatch):
+    """6D fusion has no heading reference: the gyro's bias about the vertical, followed only as
+    well as gravity sees it while the board warms, turns the aim; 9D holds it (same player, same
+    seed). The bias's drift state (a type-2 loop) follows the warm-up's ramp, so the late aim
+    without a magnetometer is better than the filter's without it (the filter before)."""
+    import game.sim.gesture_eval as ge
+    from game.body.tracking import Tracking
+    from tracker.fusion.default import DefaultFilter, DefaultParams
+
+    nine = run_trial(PlayerProfile(), 0, gestures=20)
+    six = run_trial(PlayerProfile(), 0, gestures=20, magnetometer=False)
+    before_filter = DefaultFilter(DefaultParams(drift_t=1e9))  # no drift learned: the filter before
+    monkeypatch.setattr(ge, "Tracking", functools.partial(Tracking, filter=before_filter))
+    before = run_trial(PlayerProfile(), 0, gestures=20, magnetometer=False)
+    assert (nine.matched, six.matched) == (nine.true_launches, six.true_launches)
+    late = {name: float(np.median(r.late_aim_errors_deg)) for name, r in (("9D", nine), ("6D", six),
+                                                                          ("6D before", before))}
+    assert late["9D"] <= 3.0 and late["9D"] < late["6D"], late
+    assert late["6D"] < 0.9 * late["6D before"], late

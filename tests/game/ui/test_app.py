@@ -1,0 +1,244 @@
+"""The real app under the dummy video driver, driven by injected keyboard events."""
+
+import os
+
+os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
+
+import json  # noqa: E402
+
+import pygame  # noqa: E402
+import pytest  # noqa: E402
+
+from game.ui.app import App, Calibration, GameOver, Menu, Pause, Play  # noqa: E402
+from game.ui.preferences import Preferences  # noqa: E402
+from game.world.arena_model import Zombie  # noqa: E402
+
+DT = 1 / 60
+
+
+def key(k, down=True):
+    return pygame.event.Event(pygame.KEYDOWN if down else pygame.KEYUP, key=k, mod=0, unicode="")
+
+
+def frames(app, seconds, events=()):
+    app.frame(list(events), DT)
+    for _ in range(int(seconds / DT)):
+        app.frame([], DT)
+
+
+@pytest.fixture
+def app(tmp_path):
+    a = App(Preferences(input="keyboard"), config_dir=tmp_path, seed=3)
+    yield a
+    a.close()
+
+
+def test_menu_calibration_play_pause_game_over_on_the_keyboard(app, tmp_path):
+    assert isinstance(app.screen, Menu)
+    frames(app, 0.1, [key(pygame.K_DOWN), key(pygame.K_RETURN)])  # "Calibrate"
+    assert isinstance(app.screen, Calibration)
+    frames(app, 5.0)  # get ready, then hold the arm down
+    assert app.screen.step == "forward"
+    frames(app, 4.5, [key(pygame.K_r)])  # hold R: the arm straight forward
+    assert app.screen.step == "done", app.screen.message
+    frames(app, 0.1, [key(pygame.K_r, False), key(pygame.K_RETURN)])
+    assert isinstance(app.screen, Menu)
+    frames(app, 0.1, [key(pygame.K_RETURN)])  # "Play"
+    assert isinstance(app.screen, Play)
+
+    # Raise, flex, straighten: a ball flies.
+    frames(app, 0.6, [key(pygame.K_r)])
+    frames(app, 0.8, [key(pygame.K_f)])
+    assert app.game.gestures.state.value == "spinning"
+    frames(app, 0.2, [key(pygame.K_f, False)])
+    assert app.game.gestures.state.value == "fired"
+    assert app.game.arena.balls, "the launch should have put a ball in flight"
+
+    frames(app, 0.1, [key(pygame.K_ESCAPE)])
+    assert isinstance(app.screen, Pause)
+    t = app.game.arena.time
+    frames(app, 0.5)
+    assert app.game.arena.time == t  # nothing moves while paused
+    frames(app, 0.1, [key(pygame.K_ESCAPE)])
+    assert isinstance(app.screen, Play)
+
+    # A zombie at the player's side and almost no health left: game over.
+    arena = app.game.arena
+    arena.player.health = 1.0
+    arena.zombies.append(Zombie(999, arena.player.x + 0.3, arena.player.y, speed=0.5, health=3, phase=0.0))
+    for _ in range(600):
+        app.frame([], DT)
+        if isinstance(app.screen, GameOver):
+            break
+    assert isinstance(app.screen, GameOver)
+    scores = json.loads((tmp_path / "scores.json").read_text())
+    assert scores[0]["score"] == arena.score
+    frames(app, 0.1, [key(pygame.K_RETURN)])
+    assert isinstance(app.screen, Menu)
+
+
+def test_settings_persist(app, tmp_path):
+    frames(app, 0.1, [key(pygame.K_DOWN), key(pygame.K_DOWN), key(pygame.K_RETURN)])  # "Settings"
+    frames(app, 0.1, [key(pygame.K_DOWN), key(pygame.K_RIGHT), key(pygame.K_ESCAPE)])  # arm: left
+    assert isinstance(app.screen, Menu)
+    saved = json.loads((tmp_path / "settings.json").read_text())
+    assert saved["side"] == "left" and app.game.avatar.body.side == "left"
+
+
+def test_quit_from_the_menu(app):
+    frames(app, 0.1, [key(pygame.K_ESCAPE)])
+    assert not app.running
+
+
+def test_a_pulled_cable_pauses_with_a_message_and_play_resumes_when_it_is_back(app):
+    import time
+
+    from tracker.board import VirtualBoard
+
+    with VirtualBoard() as board:
+        app.game.use_board(board.port)
+        app.game.calibrated = True
+        app.screen = Play(app.game)
+        deadline = time.monotonic() + 5
+        while not app.game.tracker.connected and time.monotonic() < deadline:
+            app.frame([], DT)
+            time.sleep(0.01)
+        assert app.game.tracker.connected
+        board.pull_cable()
+        deadline = time.monotonic() + 5
+        while not isinstance(app.screen, Pause) and time.monotonic() < deadline:
+            app.frame([], DT)
+            time.sleep(0.01)
+        assert isinstance(app.screen, Pause) and "cable" in app.screen.reason
+        board.plug_in()
+        deadline = time.monotonic() + 8
+        while not isinstance(app.screen, Play) and time.monotonic() < deadline:
+            app.frame([], DT)
+            time.sleep(0.02)
+        assert isinstance(app.screen, Play)
+
+
+def test_without_a_display_the_game_says_how_to_run_headless():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY", "SDL_VIDEODRIVER")}
+    r = subprocess.run([sys.executable, "-m", "game"], capture_output=True, text=True, env=env, timeout=60,
+                       cwd=Path(__file__).resolve().parents[3])
+    assert r.returncode != 0 and "Traceback" not in r.stderr
+    assert "no display found" in r.stderr and "energyball shots" in r.stderr
+
+
+def test_virtual_input_plays_from_a_simulated_board_and_stops_it_on_close(tmp_path):
+    import time
+
+    a = App(Preferences(input="virtual"), config_dir=tmp_path, seed=2)
+    try:
+        board = a.game.virtual_board
+        assert board is not None and a.game.tracker is not None
+        assert a.game.tracker.opened.wait(5.0) and a.game.tracker.error is None
+        time.sleep(0.3)
+        assert a.game.pose(DT).flex_deg >= 0  # poses come from the board
+    finally:
+        a.close()
+    assert a.game.virtual_board is None and not os.path.exists(board.port)
+
+
+def test_calibrating_a_board_that_keeps_moving_fails_with_the_reason(app):
+    import time
+
+    from tracker.board import VirtualBoard
+
+    with VirtualBoard() as board:  # its simulated arm never holds still
+        app.game.use_board(board.port)
+        assert app.game.tracker.opened.wait(5.0)
+        app.screen = Calibration(app.game, then_play=False)
+        for _ in range(int(6.0 / DT)):  # in real time: the hold is timed in the board's samples too
+            app.frame([], DT)
+            time.sleep(DT)
+            if app.screen.step == "failed":
+                break
+        assert app.screen.step == "failed" and "moved" in app.screen.message
+        assert "R: try again" in app.screen.message
+
+
+def test_a_port_that_cannot_be_opened_falls_back_to_the_keyboard_with_a_notice(tmp_path):
+    a = App(Preferences(input="/dev/ttyNOPE"), config_dir=tmp_path, seed=1)
+    try:
+        assert a.game.tracker is not None and a.game.tracker.opened.wait(5.0)
+        frames(a, 0.1)
+        assert a.game.tracker is None and a.game.source == "keyboard"
+        assert any("no such port" in n and "keyboard" in n for n in a.game.notices)
+    finally:
+        a.close()
+
+
+def test_shots_into_a_folder_that_cannot_be_made_is_one_clear_line():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    r = subprocess.run([sys.executable, "-m", "game", "shots", "--out", "/proc/no/such/folder"],
+                       capture_output=True, text=True, timeout=120, cwd=Path(__file__).resolve().parents[3])
+    assert r.returncode != 0 and "Traceback" not in r.stderr
+    assert r.stderr.strip().splitlines() == [r.stderr.strip().splitlines()[-1]]
+    assert "cannot write the screenshots" in r.stderr
+
+
+def test_shots_onto_a_file_is_refused_and_the_file_kept(tmp_path):
+    import subprocess
+    import sys
+
+    kept = tmp_path / "notes.txt"
+    kept.write_text("mine")
+    r = subprocess.run([sys.executable, "-m", "game", "shots", "--out", str(kept)],
+                       capture_output=True, text=True, timeout=120, env={**os.environ, "SDL_VIDEODRIVER": "dummy"})
+    assert r.returncode == 1 and r.stderr.count("\n") == 1 and f"{kept} is not a folder" in r.stderr
+    assert kept.read_text() == "mine" and sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+
+
+class _ShakyHoldTracker:
+    """A board whose arm hangs still, but whose hold the bias estimate refuses (say, a turn about the vertical)."""
+
+    def __init__(self):
+        from types import SimpleNamespace
+
+        import numpy as np
+
+        from game.body.pose import ArmPose
+        from tracker import protocol as P
+        from tracker.calibration import BiasResult
+
+        hanging = ArmPose((1.0, 0.0, 0.0, 0.0), 0.0, 0.0)
+        self.recent = [P.RawSample(0.0, 0, 0, (0, 0, 2048), (0, 0, 0), None, 390, 16, 2000)]
+        refused = BiasResult(False, "the arm turned about the vertical", np.zeros(3), np.zeros(3), 2.0)
+        self.tracking = SimpleNamespace(hold_still=lambda hold: (refused, [hanging] * 50))
+        self.forward = False
+        self._hanging = hanging
+        self.error, self.connected, self.status = None, True, "streaming"
+
+    def poll(self):
+        from game.body.pose import ArmPose
+        from tracker import quat as Q
+
+        if not self.forward:
+            return self._hanging
+        return ArmPose(tuple(Q.from_axis_angle((1.0, 0.0, 0.0), 1.5708)), 0.0, 0.0)
+
+    def close(self):
+        pass
+
+
+def test_a_hold_too_shaky_for_the_bias_still_calibrates_and_says_the_bias_is_learned_in_play(app):
+    tracker = _ShakyHoldTracker()
+    app.game.tracker = tracker
+    screen = Calibration(app.game, then_play=False)
+    app.screen = screen
+    frames(app, 2.0 + 2.6)  # get ready, then hold the arm down
+    assert screen.step == "forward" and not screen.bias_learned
+    tracker.forward = True
+    frames(app, 2.0 + 2.1)
+    assert screen.step == "done", screen.message
+    assert "learned as you play" in screen.message
