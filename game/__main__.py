@@ -112,11 +112,10 @@ def cmd_play(args: argparse.Namespace) -> int:
     if not display_available():
         print(HEADLESS_HELP, file=sys.stderr)
         return 1
-    import pygame
-    from .ui.app import App
+    from .ui.app import App, WindowError
     try:
         app = App(input_choice=_input_choice(args), seed=args.seed)
-    except pygame.error as e:
+    except WindowError as e:
         raise UsageError(f"cannot open the game window ({e}); for headless use see `energyball shots --help`")
     return app.run()
 

@@ -826,6 +826,10 @@ def apply_input(game: Game) -> None:
 # ----------------------------------------------------------------- the app
 
 
+class WindowError(Exception):
+    """The game window cannot open here (SDL's reason in the message)."""
+
+
 class App:
     """The window, the clock and the current screen."""
 
@@ -843,7 +847,10 @@ class App:
             except ValueError as e:  # a port name no port has (the command line should refuse it first)
                 notices.append(f"{e}; using {loaded.input!r}")
         flags = pygame.RESIZABLE | (pygame.FULLSCREEN if loaded.fullscreen else 0)
-        self.surface = pygame.display.set_mode(size, flags)
+        try:
+            self.surface = pygame.display.set_mode(size, flags)
+        except pygame.error as e:  # no display here, or none that can make this window
+            raise WindowError(str(e)) from None
         pygame.display.set_caption("EnergyBall")
         audio = Audio(volume=loaded.volume, music_volume=loaded.music_volume)
         audio.start()  # opens the mixer now, so a missing audio device is noticed here

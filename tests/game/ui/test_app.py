@@ -131,6 +131,18 @@ def test_without_a_display_the_game_says_how_to_run_headless():
     assert "no display found" in r.stderr and "energyball shots" in r.stderr
 
 
+def test_a_window_sdl_cannot_open_is_one_line_naming_sdls_reason():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    env = {**os.environ, "SDL_VIDEODRIVER": "no_such_driver", "SDL_AUDIODRIVER": "dummy"}
+    r = subprocess.run([sys.executable, "-m", "game", "--keyboard"], capture_output=True, text=True, env=env,
+                       timeout=60, cwd=Path(__file__).resolve().parents[3])
+    assert r.returncode == 1 and "Traceback" not in r.stderr
+    assert "energyball: cannot open the game window (no_such_driver not available)" in r.stderr
+
+
 def test_virtual_input_plays_from_a_simulated_board_and_stops_it_on_close(tmp_path):
     import time
 
