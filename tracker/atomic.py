@@ -21,11 +21,12 @@ The one way this project writes a user's file:
 from __future__ import annotations
 
 import atexit
+import contextlib
 import os
 import stat
 import tempfile
 from pathlib import Path
-from typing import IO
+from typing import IO, Iterator
 
 from .signals import deferred
 
@@ -118,6 +119,7 @@ class AtomicFile:
     def __init__(self, path: str | os.PathLike, mode: str = "wb", newline: str | None = None) -> None:
         self.shown = os.fspath(path)  # as the user wrote it, for messages
         self.path = check_output(path)
+        self.published = False  # in place already (publish), written as it goes
         with deferred():  # a temporary file, once it exists, is open and known to _PENDING
             try:
                 fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".part", dir=self.path.parent)
@@ -135,22 +137,40 @@ class AtomicFile:
 
     def commit(self) -> None:
         """Flush to disk and rename over the target; a signal meanwhile waits until it is done."""
-        with deferred():
-            try:
-                self.file.flush()
-                os.fsync(self.file.fileno())
-                self.file.close()
+        with deferred(), self._dropped_on_failure():
+            self.file.flush()
+            os.fsync(self.file.fileno())
+            self.file.close()
+            if not self.published:
                 _refuse_non_regular(self.shown, self.path)  # the target may have changed since the check
                 os.replace(self._tmp, self.path)
-                _PENDING.discard(self)
-            except OSError as e:
-                self._drop()
-                if isinstance(e, OutputError):
-                    raise
-                raise OutputError(f"cannot write {self.shown}: {e.strerror or e}") from None
-            except BaseException:
-                self._drop()
+            _PENDING.discard(self)
+
+    def publish(self) -> None:
+        """Put the file in place now and keep writing to it: for a file written as it goes (a session
+        recording), whose every flushed part is to be kept, a crash included. Then :meth:`commit`
+        only flushes and closes it, and :meth:`discard` only closes it."""
+        with deferred(), self._dropped_on_failure():
+            self.file.flush()
+            os.fsync(self.file.fileno())
+            _refuse_non_regular(self.shown, self.path)
+            os.replace(self._tmp, self.path)
+            self.published = True
+            _PENDING.discard(self)
+
+    @contextlib.contextmanager
+    def _dropped_on_failure(self) -> Iterator[None]:
+        """Any failure drops the temporary file; an OSError becomes an OutputError naming the user's path."""
+        try:
+            yield
+        except OSError as e:
+            self._drop()
+            if isinstance(e, OutputError):
                 raise
+            raise OutputError(f"cannot write {self.shown}: {e.strerror or e}") from None
+        except BaseException:
+            self._drop()
+            raise
 
     def discard(self) -> None:
         """Drop the temporary file; the target is untouched. A signal meanwhile waits until it is done."""
@@ -162,7 +182,8 @@ class AtomicFile:
             self.file.close()
         except OSError:
             pass  # a failed flush of data we are throwing away anyway
-        self._tmp.unlink(missing_ok=True)
+        if not self.published:
+            self._tmp.unlink(missing_ok=True)
         _PENDING.discard(self)
 
     def __enter__(self) -> "AtomicFile":

@@ -34,7 +34,7 @@ import numpy as np
 from . import quat as Q
 from .atomic import atomic_write
 from .fusion import FILTERS, make
-from .recording import open_input
+from .input_files import open_input
 
 REQUIRED = {"gyr": 3, "acc": 3, "mag": 3, "quat": 4}
 PEERS = ("vqf", "imufusion")
@@ -131,7 +131,7 @@ def _check_truth(path: Path, quat: np.ndarray) -> None:
 def read_npz(path: str | Path, error: Callable[[str], Exception] = DatasetError) -> dict[str, np.ndarray]:
     """The arrays of a ``.npz`` file, read without pickles and without trusting its headers.
 
-    A regular file of at most :data:`MAX_TRIAL_BYTES` (:func:`tracker.recording.open_input`),
+    A regular file of at most :data:`MAX_TRIAL_BYTES` (:func:`tracker.input_files.open_input`),
     a zip archive of ``.npy`` members (NumPy's format, ``numpy.lib.format``),
     each member's header checked before its data is read: no Python objects
     (they would need unpickling) and no more data claimed than the member holds.

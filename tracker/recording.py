@@ -11,7 +11,9 @@ A headerless file (say, ``cat /dev/ttyACM0 > capture.bin``) is read as bytes
 too. A ``.csv`` recording has ``#`` comment lines (format, the board's hello
 as JSON) and then one row per sample in SI units. Both replay through the
 same decoder the live link uses: a CSV's samples are encoded back into
-frames first, so a recording exercises the whole input path.
+frames first, so a recording exercises the whole input path. A game's
+session recording (:mod:`tracker.session_recording`) is read for the
+board's bytes in it, as they arrived.
 
 A recording may span a restart of the board (a pulled and replugged cable, a
 RESET): its sequence numbers and clock start over (PROTOCOL.md sec. 7.1). It
@@ -32,7 +34,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import stat
 import threading
 import time
 from dataclasses import dataclass, field
@@ -41,6 +42,8 @@ from typing import IO, Callable, Iterable, Iterator
 
 from . import protocol as P
 from .atomic import AtomicFile
+from .input_files import MAX_RECORDING_BYTES, RecordingError, open_input
+from .session_recording import SessionReader, is_session, wire_chunks
 from .userjson import JSONInputError, parse_json
 
 MAGIC = b"EBRAW1\n"
@@ -49,66 +52,11 @@ RAW_COLUMNS = ["t_s", "t_us", "seq", "acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y"
                "mag_x", "mag_y", "mag_z", "flex_adc", "acc_fs_g", "gyr_fs_dps", "host_t", "run"]
 FUSED_COLUMNS = ["t_s", "t_us", "seq", "qw", "qx", "qy", "qz", "flex_deg", "host_t", "run"]
 CHUNK = 4096
-MAX_RECORDING_BYTES = 256 * 2**20  # about 11 hours of raw frames at 200 Hz (32 bytes each)
 MAX_HEADER_BYTES = 64 * 2**10  # ours are about 400 bytes
 MAX_TIME_S = 1e9  # about 32 years: no device clock (unwrapped) or host clock in a recording comes near
 UNIT_NORM_TOLERANCE = 0.05  # a quaternion's norm may be off by this much (as the text decoder allows)
 
 Sample = P.RawSample | P.FusedSample
-
-
-class RecordingError(Exception):
-    """A recording that cannot be read, worded for the user."""
-
-
-# ----------------------------------------------------------------- opening a user's file
-
-
-def _kind(mode: int) -> str:
-    """What a file that is not a regular file is, in words."""
-    for test, kind in ((stat.S_ISDIR, "a directory"), (stat.S_ISCHR, "a character device (a terminal or serial port?)"),
-                       (stat.S_ISBLK, "a block device"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
-                       (stat.S_ISSOCK, "a socket")):
-        if test(mode):
-            return kind
-    return "not a regular file"
-
-
-def _megabytes(n: int) -> str:
-    return f"{n / 2**20:.0f} MB" if n >= 2**20 else f"{n} bytes"
-
-
-def open_input(path: str | os.PathLike, what: str = "recording",
-               error: Callable[[str], Exception] = RecordingError,
-               limit: int = MAX_RECORDING_BYTES) -> IO[bytes]:
-    """Open a file a user named for reading: a regular file of at most ``limit`` bytes.
-
-    Anything else raises ``error`` with one line naming the path: a missing or
-    unreadable file, a directory, and devices, FIFOs and sockets, which are
-    refused before they are opened (opening a serial port can reset a board,
-    reading a FIFO or a terminal can wait for ever, ``/dev/zero`` never ends).
-    The check is repeated on the open file, so a file swapped in between is
-    refused too.
-    """
-    shown = os.fspath(path)
-    try:
-        before = os.stat(path)
-        if not stat.S_ISREG(before.st_mode):
-            raise error(f"{shown} is {_kind(before.st_mode)}, not a {what} file")
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_NONBLOCK", 0))
-    except FileNotFoundError:
-        raise error(f"no such file: {shown}") from None
-    except OSError as e:
-        raise error(f"cannot read {shown}: {e.strerror or e}") from None
-    st = os.fstat(fd)
-    if not stat.S_ISREG(st.st_mode):
-        os.close(fd)
-        raise error(f"{shown} is {_kind(st.st_mode)}, not a {what} file")
-    if st.st_size > limit:
-        os.close(fd)
-        raise error(f"{shown} is {_megabytes(st.st_size)}; a {what} of at most {_megabytes(limit)} is read")
-    os.set_blocking(fd, True)
-    return os.fdopen(fd, "rb")
 
 
 def _brief(text: str, limit: int = 60) -> str:
@@ -535,6 +483,7 @@ class Replay:
     stats: P.DecoderStats = field(default_factory=P.DecoderStats)
     hello: P.Hello | None = None
     runs: list[Run] = field(default_factory=list)
+    session: SessionReader | None = None  # a session recording's reader (its ``stopped`` says if it was cut off)
 
     def __iter__(self) -> Iterator[Sample]:
         with open_input(self.path) as f:
@@ -564,6 +513,10 @@ class Replay:
             f.seek(0)
             self.hello, rows = _csv_rows(f, self.path)
             return ((P.encode(r.sample), r) for r in rows), P.FrameDecoder()
+        if is_session(f):  # a game's session recording: the board's bytes as they arrived
+            session = SessionReader(self.path)
+            self.session = session
+            return ((chunk, None) for chunk in wire_chunks(session)), decoder_for(session.header.get("wire", {}))
         header, self.hello = _read_header(f, self.path)
         return ((chunk, None) for chunk in _chunks(f)), decoder_for(header)
 
