@@ -12,6 +12,8 @@ import os
 import stat
 from typing import IO, Callable
 
+from .userjson import JSONInputError, parse_json
+
 MAX_RECORDING_BYTES = 256 * 2**20  # about 11 hours of raw frames at 200 Hz (32 bytes each)
 
 
@@ -66,3 +68,16 @@ def open_input(path: str | os.PathLike, what: str = "recording",
     return os.fdopen(fd, "rb")
 
 
+
+
+def read_header_line(f: IO[bytes], path: str | os.PathLike, what: str, limit: int) -> object:
+    """The JSON on the next line of an open file (a recording's header), or a RecordingError saying the
+    ``what``'s header is damaged; the file is left at the next line."""
+    line = f.readline(limit + 1)
+    if not line.endswith(b"\n"):
+        raise RecordingError(f"{os.fspath(path)}: the {what}'s header is damaged (no end of line within "
+                             f"{limit // 1024} kB)")
+    try:
+        return parse_json(line, f"{os.fspath(path)}: the {what}'s header")
+    except JSONInputError as e:
+        raise RecordingError(f"{e}: the {what}'s header is damaged") from None

@@ -42,7 +42,7 @@ from typing import IO, Callable, Iterable, Iterator
 
 from . import protocol as P
 from .atomic import AtomicFile
-from .input_files import MAX_RECORDING_BYTES, RecordingError, open_input
+from .input_files import MAX_RECORDING_BYTES, RecordingError, open_input, read_header_line
 from .session_recording import SessionReader, is_session, wire_chunks
 from .userjson import JSONInputError, parse_json
 
@@ -238,14 +238,7 @@ def _read_header(f: IO[bytes], path: str | os.PathLike) -> tuple[dict, P.Hello |
     if f.read(len(MAGIC)) != MAGIC:
         f.seek(0)
         return {}, None
-    line = f.readline(MAX_HEADER_BYTES + 1)
-    if not line.endswith(b"\n"):
-        raise RecordingError(f"{path}: the recording's header is damaged (no end of line "
-                             f"within {MAX_HEADER_BYTES // 1024} kB)")
-    try:
-        header = parse_json(line, f"{path}: the recording's header")
-    except JSONInputError as e:
-        raise RecordingError(f"{e}: the recording's header is damaged") from None
+    header = read_header_line(f, path, "recording", MAX_HEADER_BYTES)
     if not isinstance(header, dict):
         raise RecordingError(f"{path}: the recording's header is damaged: expected a JSON object, "
                              f"not {_brief(json.dumps(header))}")

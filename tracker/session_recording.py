@@ -42,8 +42,7 @@ from pathlib import Path
 from typing import IO, Iterator
 
 from .atomic import AtomicFile
-from .input_files import RecordingError, open_input
-from .userjson import JSONInputError, parse_json
+from .input_files import RecordingError, open_input, read_header_line
 
 MAGIC = b"EBSESSION1\n"
 FORMAT = "energyball-session"
@@ -252,14 +251,7 @@ def read_header(f: IO[bytes], path: Path) -> dict:
                                  f"({start.strip().decode('ascii', 'replace')}); this EnergyBall reads {MAGIC.strip().decode()}")
         raise RecordingError(f"{path} is not an EnergyBall session recording (it does not start with "
                              f"{MAGIC.strip().decode()})")
-    line = f.readline(MAX_HEADER_BYTES + 1)
-    if not line.endswith(b"\n"):
-        raise RecordingError(f"{path}: the session's header is damaged (no end of line within "
-                             f"{MAX_HEADER_BYTES // 1024} kB)")
-    try:
-        header = parse_json(line, f"{path}: the session's header")
-    except JSONInputError as e:
-        raise RecordingError(f"{e}: the session's header is damaged") from None
+    header = read_header_line(f, path, "session", MAX_HEADER_BYTES)
     if not isinstance(header, dict) or header.get("format") != FORMAT:
         raise RecordingError(f"{path}: the session's header is damaged: it does not say \"format\": \"{FORMAT}\"")
     if header.get("version") != VERSION:
