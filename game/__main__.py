@@ -25,6 +25,7 @@ import json
 import os
 import signal
 import sys
+from pathlib import Path
 
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")  # our messages, not pygame's banner
 from typing import Sequence
@@ -95,10 +96,12 @@ def _given(args: argparse.Namespace, names: Sequence[str]) -> list[str]:
 def _check_options(args: argparse.Namespace, command_options: Sequence[str]) -> None:
     """A UsageError for an option that the chosen command would silently ignore."""
     if args.command:
-        stray = _given(args, ("headless", *SOURCES)) + _given(
+        stray = _given(args, ("headless", "record", *SOURCES)) + _given(
             args, [n for n in HEADLESS_ONLY if n not in command_options])
         if stray:
             raise UsageError(f"{', '.join(stray)} do not go with the {args.command} command")
+    elif args.headless and args.record:
+        raise UsageError("--record keeps a game you play; headless matches are kept with --record-dir")
     elif args.headless and _given(args, SOURCES):
         raise UsageError(f"{', '.join(_given(args, SOURCES))} do not go with --headless: "
                          "the bot wears a simulated board")
@@ -113,11 +116,45 @@ def cmd_play(args: argparse.Namespace) -> int:
         print(HEADLESS_HELP, file=sys.stderr)
         return 1
     from .ui.app import App, WindowError
+    from .ui.session_events import recorder
     try:
-        app = App(input_choice=_input_choice(args), seed=args.seed)
+        app = App(input_choice=_input_choice(args), seed=args.seed,
+                  session=recorder(_output(args.record)) if args.record else None)
     except WindowError as e:
         raise UsageError(f"cannot open the game window ({e}); for headless use see `energyball shots --help`")
     return app.run()
+
+
+def _output(path: str) -> Path:
+    """A file the command will write, checked before anything starts (a UsageError naming it)."""
+    from tracker.atomic import OutputError, check_output
+    try:
+        return check_output(path)
+    except OutputError as e:
+        raise UsageError(str(e)) from None
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    from tracker.recording import RecordingError
+    from .replay.replay import replay
+    try:
+        report = replay(args.file)
+    except RecordingError as e:
+        raise UsageError(str(e)) from None
+    out = report.to_json()
+    if args.json:
+        print(json.dumps(out))
+    else:
+        for key in ("frames", "seconds", "summary", "same_as_recorded"):
+            print(f"{key:18s} {out[key]}")
+        print(f"{'launches':18s} {len(out['launches'])}")
+    if report.difference:
+        print(f"energyball: the replay differs from the recording from frame {report.difference.frame} "
+              f"({report.difference.t:.2f} s): recorded {report.difference.recorded}, "
+              f"replayed {report.difference.replayed}", file=sys.stderr)
+    if report.stopped:
+        print(f"energyball: {args.file}: {report.stopped}; replayed the complete part", file=sys.stderr)
+    return 0 if report.difference is None else 3
 
 
 def _profile(path: str | None):
@@ -227,6 +264,7 @@ def build_parser() -> argparse.ArgumentParser:
     source.add_argument("--port", type=_port, help="the board's serial port or pyserial URL (default: find one)")
     parser.add_argument("--seed", type=SEED, default=0,
                         help=f"seed of the zombie waves (and of the first match), {SEED.text} (0)")
+    parser.add_argument("--record", metavar="FILE", help="keep the session in FILE (energyball replay FILE plays it again)")
     h = parser.add_argument_group("headless matches (a simulated player, no window)")
     h.add_argument("--headless", action="store_true", help="play simulated matches with a bot")
     h.add_argument("--matches", type=MATCHES, help=f"how many matches, seeds S, S+1, ..., {MATCHES.text} (1)")
@@ -256,6 +294,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="9: fuse the magnetometer, as the game does (9); 6: without it")
     p.add_argument("--json", action="store_true", default=argparse.SUPPRESS)
     p.set_defaults(func=cmd_gestures_eval, options=("profile", "json"))
+
+    p = sub.add_parser("replay", help="play a session recording again (--record) and compare")
+    p.add_argument("file", metavar="FILE")
+    p.add_argument("--headless", action="store_true", help="no window (the only way for now)")
+    p.add_argument("--json", action="store_true", default=argparse.SUPPRESS,
+                   help="the session's summary, its launches and every event, as JSON")
+    p.set_defaults(func=cmd_replay, options=("json",))
 
     p = sub.add_parser("shots", help="render every screen to PNG (dummy video driver)")
     p.add_argument("--out", required=True, metavar="DIR")

@@ -15,7 +15,7 @@ import math
 import threading
 from collections import deque
 from dataclasses import dataclass
-from typing import Iterable
+from typing import Callable, Iterable
 
 import numpy as np
 from mypy_extensions import mypyc_attr
@@ -79,12 +79,35 @@ class KeyboardMouse:
         return tuple(float(c) for c in Q.multiply(arm, Q.conjugate(self.mount)))  # type: ignore[return-value]
 
 
+@dataclass(frozen=True)
+class SourceState:
+    """What the game asks of an input source, taken once a frame (so a frame sees one state however
+    the link's thread moves on meanwhile, and a replay can give the same): whether it is usable or
+    failed, whether the board is there now, and its HELLO."""
+
+    opened: bool = False  # opening is over (usable, or failed: ``error``)
+    error: str | None = None
+    connected: bool = False
+    hello: P.Hello | None = None
+
+    def to_json(self) -> dict:
+        return {"opened": self.opened, "error": self.error, "connected": self.connected,
+                "hello": self.hello.to_json() if self.hello else None}
+
+    @classmethod
+    def from_json(cls, d: dict) -> "SourceState":
+        hello = d.get("hello")
+        return cls(bool(d["opened"]), d.get("error"), bool(d["connected"]),
+                   P.Hello.from_json(hello) if hello else None)
+
+
 @mypyc_attr(allow_interpreted_subclasses=True)  # the Board setup's simulated maker (game.ui.board_setup) is one
 class SampleInput:
     """Board samples through :mod:`game.body.tracking` to ArmPoses, keeping the last seconds of raw ones.
 
     The recent raw samples serve "hold still" and the live plots (bounded
-    memory). Subclasses say where the samples come from (:meth:`poll`).
+    memory). Subclasses say where the samples come from (:meth:`arrived`);
+    ``on_poll``, when set, hears every poll's samples (a session recording).
     """
 
     def __init__(self, tracking: Tracking | None = None) -> None:
@@ -95,6 +118,7 @@ class SampleInput:
         self.last_pose: ArmPose | None = None
         self.last_seq: int | None = None
         self.recent: deque[P.RawSample] = deque(maxlen=int(RECENT_SECONDS * PLOT_RATE))
+        self.on_poll: Callable[[list[P.RawSample | P.FusedSample]], None] | None = None
 
     def feed(self, samples: Iterable[P.RawSample | P.FusedSample]) -> ArmPose | None:
         """Run every sample through the pipeline; the newest pose (or the last one)."""
@@ -106,8 +130,23 @@ class SampleInput:
         return self.last_pose
 
     def poll(self) -> ArmPose | None:
-        """Feed what arrived since the last call; the newest pose."""
+        """Feed what arrived since the last call; the newest pose (or the last one)."""
+        samples = self.arrived()
+        if self.on_poll is not None:
+            self.on_poll(samples)
+        return self.feed(samples)
+
+    def arrived(self) -> list[P.RawSample | P.FusedSample]:
+        """The samples that arrived since the last call."""
         raise NotImplementedError
+
+    def state(self) -> SourceState:
+        """This moment's :class:`SourceState`."""
+        return SourceState(self.opened.is_set(), self.error, self.connected, self.hello_now())
+
+    def hello_now(self) -> P.Hello | None:
+        """The board's HELLO while it is connected (None: none yet, or a source without one)."""
+        return None
 
     @property
     def connected(self) -> bool:
@@ -134,9 +173,12 @@ class TrackerInput(SampleInput):
     window stays responsive; ``status`` says what is going on in words.
     """
 
-    def __init__(self, settings: LinkSettings, tracking: Tracking | None = None) -> None:
+    def __init__(self, settings: LinkSettings, tracking: Tracking | None = None,
+                 tap: Callable[[bytes], None] | None = None) -> None:
+        """``tap`` sees every byte read from the board (a session recording's)."""
         super().__init__(tracking)
         self.link = Link(settings)
+        self.link.tap = tap
         self.status = f"connecting to {settings.port}..."
         threading.Thread(target=self._open, name="tracker-open", daemon=True).start()
 
@@ -156,11 +198,14 @@ class TrackerInput(SampleInput):
     def health(self) -> LinkHealth | None:
         return self.link.health() if self.opened.is_set() and self.error is None else None
 
-    def poll(self) -> ArmPose | None:
-        """Feed every waiting sample through the pipeline; the newest pose (or the last one)."""
+    def arrived(self) -> list[P.RawSample | P.FusedSample]:
+        """Every waiting sample (none before the link is open)."""
         if not self.opened.is_set() or self.error:
-            return self.last_pose
-        return self.feed(self.link.drain())
+            return []
+        return self.link.drain()
+
+    def hello_now(self) -> P.Hello | None:
+        return self.link.hello if self.connected else None
 
     def close(self) -> None:
         if self.opened.is_set() and self.error is None:

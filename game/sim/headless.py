@@ -58,7 +58,6 @@ from tracker.sim_board import SimBoard  # noqa: E402
 
 from ..body.controls import SampleInput  # noqa: E402
 from ..body.gestures import GestureEvent  # noqa: E402
-from ..body.pose import ArmPose  # noqa: E402
 from ..body.tracking import Tracking  # noqa: E402
 from ..world.arena import ArenaSettings  # noqa: E402
 from ..world.arena_model import Controls  # noqa: E402
@@ -163,11 +162,11 @@ class WireInput(SampleInput):
         self.status = wire.label
         self.opened.set()
 
-    def poll(self) -> ArmPose | None:
+    def arrived(self) -> list[P.RawSample | P.FusedSample]:
         packets = self.decoder.feed(self.wire.read())
-        samples = [p for p in packets if isinstance(p, P.RawSample)]
+        samples: list[P.RawSample | P.FusedSample] = [p for p in packets if isinstance(p, P.RawSample)]
         self.samples_decoded += len(samples)
-        return self.feed(samples)
+        return samples
 
 
 # ----------------------------------------------------------------- one match

@@ -26,13 +26,15 @@ from tracker.calibration import BoardCalibration, board_id_of, load_for_hello
 from tracker.link import LinkSettings, find_boards
 
 from ..body.avatar import Avatar, BodySettings, Wearing
-from ..body.controls import KeyboardMouse, SampleInput, TrackerInput
+from ..body.controls import KeyboardMouse, SampleInput, SourceState, TrackerInput
 from ..body.gestures import GestureEvent, GestureMachine, GestureSettings
 from ..body.pose import ArmPose
 from ..body.wearing import arm_down, arm_down_then_forward, recenter
 from ..world.arena import Arena, ArenaSettings
 from ..world.arena_model import Controls
+from ..replay.log import SessionLog, SessionRecorder
 from .audio import Audio
+from .session_events import RECORDED, event_json, session_summary
 from .board_setup import (ACCEL, ACCEL_DONE, FAILED, MAG, MAG_DONE, BoardSetup, Follower, MakerInput,
                           calibration_notice, fresh_samples)
 from .preferences import (Preferences, Score, add_score, load_preferences, load_scores, save_preferences,
@@ -88,6 +90,11 @@ class Game:
     board_id: str | None = None  # the connected board's (from its HELLO), once its calibration is loaded
     board_uncalibrated: bool = False  # that board has no saved calibration: the menu offers the setup
     told_uncalibrated: set[str] = field(default_factory=set)  # boards the player was told so (once each)
+    link_state: SourceState = SourceState()  # the input source's, taken at the frame's start
+    log: SessionLog | None = None  # hears the session (a recording, or a replay comparing)
+    window: tuple[int, int] = WINDOW  # the window's size (the mouse aims across it)
+    board_virtual: bool = False  # the board is the virtual player's
+    board_opener: Callable[[str | None, bool], SampleInput] | None = None  # None: open the port (a replay's gives its own)
 
     # -------------------------------------------------------- input
 
@@ -104,36 +111,45 @@ class Game:
         return self.keyboard.update(dt)
 
     def use_board(self, port: str | None, virtual: bool = False) -> None:
-        """Switch to a board (a port, or a virtual one) read in the background."""
+        """Switch to a board (a port, or a virtual one) read in the background (a replay's
+        ``board_opener`` gives the recorded one instead)."""
         self.close_board()
+        self.use_source((self.board_opener or self._open_board)(port, virtual), virtual)
+
+    def _open_board(self, port: str | None, virtual: bool) -> SampleInput:
         if virtual:
             from tracker.board import VirtualBoard
 
             from ..sim.virtual_player import VirtualPlayer
             self.virtual_board = VirtualBoard(VirtualPlayer(seed=self.seed)).start()
             port = self.virtual_board.port
-        self.use_source(TrackerInput(LinkSettings(port)))
-        # The virtual player wears the board as designed and does not follow prompts: it
-        # needs (and allows) no wearing calibration.
-        self.calibrated = virtual
+        return TrackerInput(LinkSettings(port), tap=self.log.wire if isinstance(self.log, SessionRecorder) else None)
 
-    def use_source(self, source: SampleInput) -> None:
-        """Take arm poses from ``source`` (a board, or the headless match's wire); calibrate anew."""
+    def use_source(self, source: SampleInput, virtual: bool = False) -> None:
+        """Take arm poses from ``source`` (a board, or the headless match's wire); calibrate anew.
+
+        ``virtual``: the virtual player's board, worn as designed and deaf to prompts: it needs (and
+        allows) no wearing calibration, and its calibration files are its own."""
         self.tracker = source
-        self.calibrated = False
+        self.board_virtual = virtual
+        self.link_state = SourceState()
+        if self.log is not None:
+            source.on_poll = self.log.poll
+            self.log.source("board", source.tracking.board.to_json(), virtual)
+        self.calibrated = virtual
         self.board_id = None  # its calibration is loaded once it says who it is
         self.avatar.wearing = Wearing()
 
     def use_keyboard(self) -> None:
         self.close_board()
+        if self.log is not None:
+            self.log.source("keyboard", None, False)
         self.avatar.wearing = Wearing()
         self.calibrated = True  # keyboard poses are made for the ideal wearing
 
     def hello(self) -> P.Hello | None:
         """The connected board's HELLO (None: no board, not connected yet, or one that sent none)."""
-        if isinstance(self.tracker, MakerInput):
-            return self.tracker.hello
-        return self.tracker.link.hello if isinstance(self.tracker, TrackerInput) and self.tracker.connected else None
+        return self.link_state.hello if self.tracker else None
 
     def boards_folder(self) -> Path | None:
         """Where board calibrations live: beside the settings when the app was given a folder, else
@@ -142,7 +158,7 @@ class Game:
 
     def board_id_of(self, hello: P.Hello) -> str:
         """The board's calibration file's id; the virtual board's never names a real board's file."""
-        return board_id_of(hello, virtual=self.virtual_board is not None)
+        return board_id_of(hello, virtual=self.board_virtual)
 
     def load_board_calibration(self) -> None:
         """Once a board has said who it is: load its saved calibration and apply it; a board with none
@@ -150,7 +166,7 @@ class Game:
         hello = self.hello()
         if hello is None or self.board_id_of(hello) == self.board_id:
             return
-        calibration, loaded = load_for_hello(hello, self.boards_folder(), virtual=self.virtual_board is not None)
+        calibration, loaded = load_for_hello(hello, self.boards_folder(), virtual=self.board_virtual)
         self.board_id = self.board_id_of(hello)
         self.apply_board_calibration(calibration)
         self.board_uncalibrated = not calibration.procedures
@@ -171,6 +187,7 @@ class Game:
 
     def close_board(self) -> None:
         self.board_id = None
+        self.link_state = SourceState()
         if self.tracker:
             self.tracker.close()
             self.tracker = None
@@ -180,8 +197,15 @@ class Game:
 
     def link_lost(self) -> bool:
         """A board was connected and is not now (cable pulled)."""
-        return bool(self.tracker and self.tracker.opened.is_set() and self.tracker.error is None
-                    and not self.tracker.connected)
+        state = self.link_state
+        return bool(self.tracker and state.opened and state.error is None and not state.connected)
+
+    def walking(self) -> Controls:
+        """This step's walking input: the walker's, or the keys'."""
+        controls = self.walker() if self.walker else movement()
+        if self.log is not None:
+            self.log.walking(controls)
+        return controls
 
     # -------------------------------------------------------- the round
 
@@ -293,7 +317,7 @@ class Calibration:
         return self.message
 
     def handle(self, event: pygame.event.Event) -> Screen | None:
-        arm_input(self.game.keyboard, event)
+        arm_input(self.game.keyboard, event, self.game.window)
         if event.type == pygame.KEYDOWN:
             if event.key == pygame.K_ESCAPE:
                 return Menu(self.game)
@@ -383,7 +407,7 @@ class Play:
                 game.use_board(game.board_offer)
                 game.board_offer = None
                 return Calibration(game, then_play=True)
-        arm_input(game.keyboard, event)
+        arm_input(game.keyboard, event, game.window)
         return None
 
     def update(self, dt: float) -> Screen | None:
@@ -395,14 +419,17 @@ class Play:
         game.avatar.position = (arena.player.x, arena.player.y)
         game.avatar.body_yaw = arena.player.yaw
         state = game.avatar.update(game.pose(dt))
-        for event in game.gestures.update(state):
+        gestures = game.gestures.update(state)
+        for event in gestures:
             if event.kind == "launch":
                 arena.launch(tuple(state.hand), event.direction, event.charge)
                 if game.on_launch:
                     game.on_launch(event)
         arena.hold(*held_ball(game, state))
         charge_hum(game)
-        events = arena.advance(dt, game.walker() if game.walker else movement())
+        events = arena.advance(dt, game.walking())
+        if game.log is not None:
+            game.log.events(events, gestures)
         game.renderer.react(events)
         sounds(game, events)
         if arena.game_over:
@@ -418,8 +445,9 @@ class Play:
             game.renderer.draw_plots(surface, game.tracker.plot_series(), pygame.Rect(w - 420, h - 330, 400, 300))
 
 
-def arm_input(kb: KeyboardMouse, event: pygame.event.Event) -> None:
-    """Keyboard and mouse arm controls: R or the right button raises, F, Space or the left flexes."""
+def arm_input(kb: KeyboardMouse, event: pygame.event.Event, window: tuple[int, int]) -> None:
+    """Keyboard and mouse arm controls: R or the right button raises, F, Space or the left flexes; the
+    mouse aims across the ``window``."""
     if event.type in (pygame.KEYDOWN, pygame.KEYUP):
         down = event.type == pygame.KEYDOWN
         if event.key == pygame.K_r:
@@ -433,8 +461,7 @@ def arm_input(kb: KeyboardMouse, event: pygame.event.Event) -> None:
         elif event.button == 1:
             kb.flexed = down
     elif event.type == pygame.MOUSEMOTION:
-        surface = pygame.display.get_surface()
-        w, h = surface.get_size() if surface else WINDOW
+        w, h = window
         kb.aim_x = 2.0 * event.pos[0] / w - 1.0
         kb.aim_y = 1.0 - 2.0 * event.pos[1] / h
 
@@ -784,7 +811,7 @@ class BoardSetupScreen:
         game = self.game
         if game.tracker is None:
             return "No board connected: plug one in (the menu offers it), or start the game with --virtual"
-        if game.tracker.connected and game.hello() is None:
+        if game.link_state.connected and game.hello() is None:
             return "The board did not identify itself (not the EnergyBall firmware?): it cannot be set up here"
         return f"Waiting for the board: {game.tracker.status}"
 
@@ -835,7 +862,8 @@ class App:
 
     def __init__(self, prefs: Preferences | None = None, input_choice: str | None = None,
                  config_dir: Path | None = None, seed: int = 0, size: tuple[int, int] = WINDOW,
-                 draws: bool = True) -> None:
+                 draws: bool = True, session: Callable[[Game], SessionLog] | None = None) -> None:
+        """``session`` makes the session's log once the game exists (a recording, or a replay's)."""
         pygame.init()
         # The link's reader thread must get the GIL promptly while frames draw: switch
         # threads every 0.5 ms rather than Python's default 5 ms (input latency).
@@ -859,7 +887,9 @@ class App:
         for notice in filter(None, file_notices):  # also for a player who looks at the terminal
             print(f"energyball: {notice}", file=sys.stderr)
         self.game = Game(loaded, audio, Renderer(self.surface.get_size()), scores=scores,
-                         seed=seed, config_dir=config_dir)
+                         seed=seed, config_dir=config_dir, window=self.surface.get_size())
+        if session is not None:
+            self.game.log = session(self.game)
         if draws:  # a headless match that never draws skips the drawing's preparations
             self.game.renderer.prepare(self.surface.get_size())
         self.game.notices += [n for n in (*file_notices, audio.notice) if n]
@@ -868,6 +898,7 @@ class App:
         self.screen: Screen = Menu(self.game)
         self.clock = pygame.time.Clock()
         self._scan = 0.0
+        self.scans_for_boards = True  # a replay does not look for boards: its board is the recorded one
         audio.music(True)
         # What exists now lives as long as the game: keep it out of the collector's full
         # passes, which otherwise stall a frame by tens of milliseconds now and then.
@@ -881,6 +912,9 @@ class App:
     def frame(self, events: list[pygame.event.Event], dt: float, draw: bool = True) -> None:
         """One frame: events, logic and (unless ``draw`` is False: headless matches) drawing."""
         game = self.game
+        game.link_state = game.tracker.state() if game.tracker else SourceState()
+        if game.log is not None:
+            game.log.frame(dt, [event_json(e) for e in events if e.type in RECORDED], game.link_state if game.tracker else None)
         for event in events:
             if event.type == pygame.QUIT:
                 self.screen = Quit()
@@ -889,6 +923,7 @@ class App:
                 pygame.display.toggle_fullscreen()
             if event.type == pygame.VIDEORESIZE:
                 game.renderer.prepare(event.size)
+                game.window = tuple(event.size)
             nxt = self.screen.handle(event)
             if nxt is not None:
                 self.screen = nxt
@@ -896,8 +931,8 @@ class App:
         if nxt is not None:
             self.screen = nxt
         game.load_board_calibration()
-        if game.tracker and game.tracker.error:  # the board could not be opened: say so, play on
-            game.notices.append(f"{game.tracker.error}; playing on keyboard and mouse")
+        if game.tracker and game.link_state.error:  # the board could not be opened: say so, play on
+            game.notices.append(f"{game.link_state.error}; playing on keyboard and mouse")
             game.use_keyboard()
         self._offer_board(dt)
         game.fps = 0.9 * game.fps + 0.1 * (1.0 / dt) if dt > 0 else game.fps
@@ -909,7 +944,7 @@ class App:
         """On keyboard, look for a board now and then; offer to switch to it."""
         game = self.game
         self._scan += dt
-        if game.tracker or self._scan < BOARD_SCAN_S:
+        if game.tracker or self._scan < BOARD_SCAN_S or not self.scans_for_boards:
             return
         self._scan = 0.0
         boards = find_boards()
@@ -925,6 +960,8 @@ class App:
         return 0
 
     def close(self) -> None:
+        if isinstance(self.game.log, SessionRecorder):
+            self.game.log.close(session_summary(self.game))
         self.game.close_board()
         self.game.audio.close()
         pygame.quit()

@@ -40,7 +40,6 @@ from tracker.maker_sim import SimulatedMaker
 from tracker.protocol import RawSample
 
 from ..body.controls import SampleInput
-from ..body.pose import ArmPose
 from ..body.tracking import Tracking
 
 ACCEL, ACCEL_DONE, MAG, MAG_DONE, FAILED = "accel", "accel_done", "mag", "mag_done", "failed"
@@ -274,12 +273,15 @@ class MakerInput(SampleInput):
         self.status = "a simulated maker's board (simulated time)"
         self.opened.set()
 
-    def poll(self) -> ArmPose | None:
-        """The samples of the next ``frame_s`` through the game's pipeline; the newest pose."""
+    def hello_now(self) -> P.Hello | None:
+        return self.hello
+
+    def arrived(self) -> list[P.RawSample | P.FusedSample]:
+        """The samples of the next ``frame_s``."""
         self.t += self.frame_s
         rate = self.hello.rate_hz
         samples: list[P.RawSample | P.FusedSample] = []
         while self._next <= self.t * rate:
             samples.append(self.maker.raw_sample(self._next / rate, self._next))
             self._next += 1
-        return self.feed(samples)
+        return samples
