@@ -96,8 +96,7 @@ def _given(args: argparse.Namespace, names: Sequence[str]) -> list[str]:
 def _check_options(args: argparse.Namespace, command_options: Sequence[str]) -> None:
     """A UsageError for an option that the chosen command would silently ignore."""
     if args.command:
-        stray = _given(args, ("headless", "record", *SOURCES)) + _given(
-            args, [n for n in HEADLESS_ONLY if n not in command_options])
+        stray = _given(args, [n for n in ("headless", "record", *SOURCES, *HEADLESS_ONLY) if n not in command_options])
         if stray:
             raise UsageError(f"{', '.join(stray)} do not go with the {args.command} command")
     elif args.headless and args.record:
@@ -300,7 +299,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--headless", action="store_true", help="no window (the only way for now)")
     p.add_argument("--json", action="store_true", default=argparse.SUPPRESS,
                    help="the session's summary, its launches and every event, as JSON")
-    p.set_defaults(func=cmd_replay, options=("json",))
+    p.set_defaults(func=cmd_replay, options=("json", "headless"))
 
     p = sub.add_parser("shots", help="render every screen to PNG (dummy video driver)")
     p.add_argument("--out", required=True, metavar="DIR")

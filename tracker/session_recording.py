@@ -154,7 +154,6 @@ class SessionReader:
         self.path = Path(path)
         self.stopped: str | None = None
         self.ended = False
-        self.last_t = 0.0  # the host time of the last binary record read
         with open_input(path, "session recording", limit=MAX_SESSION_BYTES) as f:
             self.header = read_header(f, self.path)
 
@@ -168,8 +167,7 @@ class SessionReader:
                 records, whole = self._parse(payload, number)
                 yield from records
                 if not whole:
-                    self.stopped = (f"block {number} holds records this version cannot read: "
-                                    f"stopped after {self.last_t:.1f} s")
+                    self.stopped = f"block {number} holds records this version cannot read: stopped there"
                     return
 
     def _block(self, f: IO[bytes], number: int) -> bytes | None:
@@ -178,7 +176,7 @@ class SessionReader:
         head = f.read(BLOCK_HEAD.size)
         if not head:
             if not self.ended:
-                self.stopped = f"cut off after block {number} ({at} bytes, {self.last_t:.1f} s): no end record"
+                self.stopped = f"cut off after block {number} (byte {at}): it has no end record"
             return None
         if len(head) < BLOCK_HEAD.size:
             return self._stop(number, at, "cut off")
@@ -196,7 +194,7 @@ class SessionReader:
             return self._stop(number, at, "damaged (not zlib)")
 
     def _stop(self, number: int, at: int, how: str) -> None:
-        self.stopped = f"block {number + 1} at byte {at} is {how}: stopped after {self.last_t:.1f} s"
+        self.stopped = f"block {number + 1} at byte {at} is {how}: stopped after the {number} complete before it"
         return None
 
     def _parse(self, payload: bytes, number: int) -> tuple[list[Record], bool]:
@@ -219,7 +217,6 @@ class SessionReader:
                 start, at = at + BINARY_HEAD.size, at + BINARY_HEAD.size + n
                 if at > len(payload):
                     return out, False
-                self.last_t = t
                 out.append(BinaryRecord(channel, t, payload[start:at]))
             else:
                 return out, False

@@ -61,7 +61,8 @@ def test_a_file_cut_anywhere_gives_exactly_its_complete_blocks(tmp_path):
         whole = sum(1 for s in starts[1:] if s <= cut)  # blocks ending at or before the cut
         assert got == expected[:counts[whole]]
         assert not r.ended and r.stopped is not None
-        assert ("stopped after" in r.stopped) if cut not in starts else ("cut off after block" in r.stopped)
+        assert (f"stopped after the {whole} complete" in r.stopped) if cut not in starts else \
+            (f"cut off after block {whole}" in r.stopped)
 
 
 def test_a_damaged_block_stops_the_reading_there(tmp_path):

@@ -239,6 +239,11 @@ class _ShakyHoldTracker:
             return self._hanging
         return ArmPose(tuple(Q.from_axis_angle((1.0, 0.0, 0.0), 1.5708)), 0.0, 0.0)
 
+    def state(self):
+        from game.body.controls import SourceState
+
+        return SourceState(opened=True, connected=True)
+
     def close(self):
         pass
 
