@@ -82,7 +82,7 @@ def display_available() -> bool:
 
 
 HEADLESS_ONLY = ("matches", "duration", "difficulty", "profile", "faults", "workers", "endless", "render", "pty",
-                 "json")
+                 "record_dir", "json")
 
 
 SOURCES = ("keyboard", "virtual", "port")  # what the player plays with (the bot wears its own board)
@@ -133,6 +133,18 @@ def _output(path: str) -> Path:
         raise UsageError(str(e)) from None
 
 
+def _folder(path: str | None) -> str | None:
+    """A folder the command will write files into, made if need be (a UsageError naming it)."""
+    if path is None:
+        return None
+    try:
+        os.makedirs(path, exist_ok=True)
+        _output(os.path.join(path, "match-0.ebs"))
+    except OSError as e:
+        raise UsageError(f"--record-dir {path}: {e.strerror or e}") from None
+    return path
+
+
 def cmd_replay(args: argparse.Namespace) -> int:
     from tracker.recording import RecordingError
     from .replay.replay import replay
@@ -174,7 +186,7 @@ def cmd_headless(args: argparse.Namespace) -> int:
         raise UsageError(f"--faults: {e}") from None
     jobs = configs(args.seed, args.matches or 1, duration_s=args.duration or 120.0,
                    difficulty=args.difficulty or "normal", profile=_profile(args.profile), faults=faults,
-                   endless=args.endless, render=args.render, pty=args.pty)
+                   endless=args.endless, render=args.render, pty=args.pty, record_dir=_folder(args.record_dir))
     try:
         report = run_matches(jobs, workers=args.workers or 1,
                              progress=lambda text: print(text, file=sys.stderr, flush=True))
@@ -277,6 +289,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="zombies do no harm, so a match lasts its whole duration (soak runs)")
     h.add_argument("--render", action="store_true", help="draw every frame (dummy video driver)")
     h.add_argument("--pty", action="store_true", help="send the board's bytes through a real pty and pyserial")
+    h.add_argument("--record-dir", metavar="DIR", help="keep a session recording of every match in DIR "
+                   "(match-SEED.ebs: energyball replay plays it again)")
     h.add_argument("--json", action="store_true", help="print the report as JSON")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 

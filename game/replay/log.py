@@ -13,6 +13,7 @@ Record types (each documented in the file's header, ``RECORDS``):
 ``link``   the input source's state (:class:`~game.body.controls.SourceState`) from this frame on;
 ``source`` the game switched its input: {"kind": "keyboard" | "board", "calibration": board calibration};
 ``walk``   the walking input from this frame on: [forward, strafe, turn];
+``round``  a round begins: {"arena": the arena's settings, or null for the defaults};
 ``happened`` {"t": game time, "arena": [[kind, x, y, z, value], ...], "gestures": [[kind, t, dx, dy, dz, charge], ...]};
 binary channel 1 the samples of one poll (:mod:`game.replay.samples`), in the order polled;
 binary channel 0 the board's bytes as they arrived, with the host's receive time;
@@ -22,7 +23,7 @@ binary channel 0 the board's bytes as they arrived, with the host's receive time
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Sequence
 
@@ -30,6 +31,7 @@ from tracker.session_recording import WIRE, SessionWriter
 
 from ..body.controls import SourceState
 from ..body.gestures import GestureEvent
+from ..world.arena import ArenaSettings
 from ..world.arena_model import ArenaEvent, Controls
 from . import samples as S
 
@@ -38,6 +40,7 @@ RECORDS = {
     "link": "the input source's state from this frame on (opened, error, connected, the board's hello)",
     "source": "the game switched its input (keyboard, or a board, virtual or not, with the calibration it was given)",
     "walk": "the walking input [forward, strafe, turn] from this frame on",
+    "round": "a round begins, in an arena with these settings (null: the defaults)",
     "happened": "what the frame did: arena events [kind, x, y, z, value], gesture events [kind, t, dx, dy, dz, charge]",
     "channel 1": "the samples of one poll, in the order polled (game.replay.samples)",
     "channel 0": "the board's bytes as they arrived (t: host seconds since the session began)",
@@ -82,6 +85,11 @@ class SessionLog:
 
     def poll(self, samples: list[S.Sample]) -> None:
         """One poll of the input source and the samples it gave."""
+
+    def round(self, settings: ArenaSettings | None) -> None:
+        """A round begins in an arena with these settings (None: the defaults)."""
+        self._write({"type": "round", "arena": None if settings is None else
+                     {f.name: getattr(settings, f.name) for f in fields(settings) if f.init}})
 
     def walking(self, controls: Controls) -> None:
         if controls != self._walk:

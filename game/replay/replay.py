@@ -28,6 +28,7 @@ from tracker.session_recording import BinaryRecord, SessionReader
 
 from ..body.controls import SampleInput, SourceState
 from ..body.tracking import Tracking
+from ..world.arena import ArenaSettings
 from ..world.arena_model import Controls
 from . import samples as S
 from .log import Happened, SessionLog
@@ -43,6 +44,7 @@ class Frame:
     sources: list[dict] = field(default_factory=list)  # input switches, in order
     polls: list[list[S.Sample]] = field(default_factory=list)  # each poll's samples, in order
     walk: Controls | None = None  # the walking input from this frame on (None: unchanged)
+    arena: list[dict | None] = field(default_factory=list)  # the settings of each round begun in it
     happened: Happened | None = None
 
 
@@ -65,6 +67,8 @@ def frames(reader: SessionReader) -> Iterator[Frame]:
             current.sources.append(record)
         elif kind == "walk":
             current.walk = Controls(*record["c"])
+        elif kind == "round":
+            current.arena.append(record["arena"])
         elif kind == "happened":
             current.happened = Happened(record["t"], record["arena"], record["gestures"])
     yield current
@@ -135,6 +139,9 @@ class ReplayReport:
 def replay(path: str | Path, draw: Callable[[object], bool] | None = None) -> ReplayReport:
     """Play a session recording again (headless unless ``draw`` is given: it is called after each
     frame with the app and returns False to stop)."""
+    if draw is None:
+        from ..sim.headless import without_window
+        without_window()
     from ..ui.app import App
     from ..ui.preferences import Preferences
     from ..ui.session_events import event_from_json, session_summary
@@ -169,6 +176,8 @@ def replay(path: str | Path, draw: Callable[[object], bool] | None = None) -> Re
                 for r in frame.sources:
                     game.use_board(None, r["virtual"]) if r["kind"] == "board" else game.use_keyboard()
                 continue
+            if frame.arena:  # the round begun in this frame is in an arena of these settings
+                game.arena_settings = ArenaSettings(**frame.arena[-1]) if frame.arena[-1] else None
             if source:
                 source[0].begin(frame)
             if frame.walk is not None:

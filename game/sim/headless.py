@@ -45,11 +45,18 @@ from typing import Callable
 
 from mypy_extensions import mypyc_attr
 
-os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
-os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
-# Signals are ours (tracker.signals): SDL would otherwise take SIGINT and SIGTERM wherever they are left at
-# their defaults (a pool's worker) and turn them into a quit event that a headless match never reads.
-os.environ.setdefault("SDL_NO_SIGNAL_HANDLERS", "1")
+
+
+def without_window() -> None:
+    """SDL's dummy video and audio drivers, and no SDL signal handlers: for an app nobody watches."""
+    os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+    os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
+    # Signals are ours (tracker.signals): SDL would otherwise take SIGINT and SIGTERM wherever they are left
+    # at their defaults (a pool's worker) and turn them into a quit event that a headless match never reads.
+    os.environ.setdefault("SDL_NO_SIGNAL_HANDLERS", "1")
+
+
+without_window()
 
 from tracker import compiled, protocol as P, signals  # noqa: E402
 from tracker.board import Faults  # noqa: E402
@@ -59,6 +66,7 @@ from tracker.sim_board import SimBoard  # noqa: E402
 from ..body.controls import SampleInput  # noqa: E402
 from ..body.gestures import GestureEvent  # noqa: E402
 from ..body.tracking import Tracking  # noqa: E402
+from ..replay.log import SessionRecorder  # noqa: E402
 from ..world.arena import ArenaSettings  # noqa: E402
 from ..world.arena_model import Controls  # noqa: E402
 from .bot import DIFFICULTIES, Bot, Screen  # noqa: E402
@@ -84,6 +92,7 @@ class MatchConfig:
     endless: bool = False  # zombies do no harm: the match lasts its whole duration (soak runs)
     render: bool = False  # draw every frame (the dummy video driver)
     pty: bool = False  # the bytes go through a real pty and pyserial
+    record_dir: str | None = None  # keep a session recording of the match there (match-SEED.ebs)
 
     def __post_init__(self) -> None:
         if self.difficulty not in DIFFICULTIES:
@@ -154,16 +163,22 @@ class PtyWire:
 class WireInput(SampleInput):
     """The game's input from the wire: frames decoded, samples through :mod:`game.body.tracking`."""
 
-    def __init__(self, wire: MemoryWire | PtyWire, tracking: Tracking) -> None:
+    def __init__(self, wire: MemoryWire | PtyWire, tracking: Tracking,
+                 tap: Callable[[bytes], None] | None = None) -> None:
+        """``tap`` sees every byte read from the wire (a session recording's)."""
         super().__init__(tracking)
         self.wire = wire
+        self.tap = tap
         self.decoder = P.FrameDecoder()
         self.samples_decoded = 0
         self.status = wire.label
         self.opened.set()
 
     def arrived(self) -> list[P.RawSample | P.FusedSample]:
-        packets = self.decoder.feed(self.wire.read())
+        data = self.wire.read()
+        if self.tap is not None and data:
+            self.tap(data)
+        packets = self.decoder.feed(data)
         samples: list[P.RawSample | P.FusedSample] = [p for p in packets if isinstance(p, P.RawSample)]
         self.samples_decoded += len(samples)
         return samples
@@ -212,6 +227,7 @@ def run_match(config: MatchConfig, progress: Callable[[str], None] | None = None
 
     from ..ui.app import App, Calibration, GameOver, Menu, Play
     from ..ui.preferences import Preferences
+    from ..ui.session_events import recorder
 
     wall0 = time.perf_counter()
     profile, seed = config.profile, config.seed
@@ -225,15 +241,17 @@ def run_match(config: MatchConfig, progress: Callable[[str], None] | None = None
     screens: dict[type, str] = {Menu: "menu", Calibration: "calibration", Play: "play",
                                 GameOver: "game_over"}
     with tempfile.TemporaryDirectory(prefix="energyball-match-") as folder:
+        session = recorder(Path(config.record_dir) / f"match-{seed}.ebs") if config.record_dir else None
         app = App(Preferences(input="keyboard", volume=0.0, music_volume=0.0), config_dir=Path(folder),
-                  seed=seed, size=SIZE, draws=config.render)
+                  seed=seed, size=SIZE, draws=config.render, session=session)
         game = app.game
         if config.endless:
             game.arena_settings = ArenaSettings(contact_damage_per_s=0.0)
         board_calibration, problem = maker_calibration(profile, seed)
         if problem and progress:  # the match goes on with what the maker's calibration gave
             progress(f"seed {seed}: {problem}")
-        source = WireInput(wire, Tracking(board=board_calibration))
+        source = WireInput(wire, Tracking(board=board_calibration),
+                           tap=game.log.wire if isinstance(game.log, SessionRecorder) else None)
         game.use_source(source)
         walking = [Controls()]
         game.walker = lambda: walking[0]

@@ -210,6 +210,8 @@ class Game:
     # -------------------------------------------------------- the round
 
     def new_round(self) -> None:
+        if self.log is not None:
+            self.log.round(self.arena_settings)
         self.arena = Arena(self.arena_settings, seed=self.seed)
         self.gestures = GestureMachine(self.gesture_settings())
         self.avatar = Avatar(BodySettings(side=self.prefs.side), self.avatar.wearing)

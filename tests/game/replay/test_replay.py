@@ -181,3 +181,25 @@ def test_foreign_files_are_one_clear_line(tmp_path, content, words):
     r = run_cli("replay", str(path), "--headless", home=tmp_path)
     assert r.returncode == 1 and "Traceback" not in r.stderr
     assert words in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_a_headless_match_kept_with_record_dir_replays_to_its_own_report(tmp_path):
+    from game.sim.headless import MatchConfig, run_match
+
+    match = run_match(MatchConfig(seed=3, duration_s=40.0, record_dir=str(tmp_path)))
+    report = replay(tmp_path / "match-3.ebs")
+    assert report.difference is None and report.stopped is None
+    assert (report.summary["score"], report.summary["kills"]) == (match["score"], match["kills"])
+    launches = report.to_json()["launches"]
+    assert len(launches) == match["detected_launches"] > 0
+
+
+def test_record_dir_on_the_command_line(tmp_path):
+    r = run_cli("--headless", "--matches", "2", "--seed", "5", "--duration", "10", "--record-dir",
+                str(tmp_path / "kept"), home=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in (tmp_path / "kept").iterdir()) == ["match-5.ebs", "match-6.ebs"]
+    bad = tmp_path / "a-file"
+    bad.write_text("")
+    r = run_cli("--headless", "--duration", "10", "--record-dir", str(bad), home=tmp_path)
+    assert r.returncode == 1 and "--record-dir" in r.stderr and "Traceback" not in r.stderr
