@@ -115,10 +115,10 @@ def cmd_play(args: argparse.Namespace) -> int:
         print(HEADLESS_HELP, file=sys.stderr)
         return 1
     from .ui.app import App, WindowError
-    from .ui.session_events import recorder
+    from .ui.session_events import keep_session, recorder
     try:
         app = App(input_choice=_input_choice(args), seed=args.seed,
-                  session=recorder(_output(args.record)) if args.record else None)
+                  session=recorder(_output(args.record)) if args.record else keep_session)
     except WindowError as e:
         raise UsageError(f"cannot open the game window ({e}); for headless use see `energyball shots --help`")
     return app.run()

@@ -864,7 +864,7 @@ class App:
 
     def __init__(self, prefs: Preferences | None = None, input_choice: str | None = None,
                  config_dir: Path | None = None, seed: int = 0, size: tuple[int, int] = WINDOW,
-                 draws: bool = True, session: Callable[[Game], SessionLog] | None = None) -> None:
+                 draws: bool = True, session: Callable[[Game], SessionLog | None] | None = None) -> None:
         """``session`` makes the session's log once the game exists (a recording, or a replay's)."""
         pygame.init()
         # The link's reader thread must get the GIL promptly while frames draw: switch

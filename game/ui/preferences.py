@@ -155,6 +155,7 @@ class Preferences:
     flex_on_deg: float = _value(55.0, Rule(float, 15.0, 120.0, "elbow flex in degrees"))
     flex_off_deg: float = _value(25.0, Rule(float, 5.0, 110.0, "elbow flex in degrees"))
     player: str = _value("Player", NAME_RULE)
+    keep_sessions: int = _value(10, Rule(int, 0, 1000, "the newest sessions kept as recordings; 0: none"))
 
     def __post_init__(self) -> None:
         _normalise(self)

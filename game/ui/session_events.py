@@ -11,6 +11,7 @@ board says who it is).
 from __future__ import annotations
 
 import json
+import os
 import time
 from dataclasses import asdict
 from importlib import metadata
@@ -23,6 +24,7 @@ from tracker import protocol as P
 from tracker.calibration import boards_dir
 
 from ..replay.log import SessionLog, SessionRecorder
+from .preferences import shown
 
 if TYPE_CHECKING:
     from .app import Game
@@ -86,6 +88,33 @@ def session_header(game: "Game", input_choice: str) -> dict:
 def recorder(path: Path) -> Callable[["Game"], SessionLog]:
     """The App's ``session`` that records to ``path``."""
     return lambda game: SessionRecorder(path, session_header(game, game.prefs.input))
+
+
+def recordings_dir() -> Path:
+    """Where the newest sessions are kept: ``$XDG_DATA_HOME/energyball/recordings`` (``~/.local/share/...``)."""
+    base = os.environ.get("XDG_DATA_HOME") or Path.home() / ".local" / "share"
+    return Path(base) / "energyball" / "recordings"
+
+
+def keep_session(game: "Game") -> SessionLog | None:
+    """The App's ``session`` of a game played: recorded in :func:`recordings_dir`, keeping the newest
+    ``keep_sessions`` (the settings); None when that is 0 or the folder cannot be written (a notice)."""
+    keep = game.prefs.keep_sessions
+    if keep == 0:
+        return None
+    folder = recordings_dir()
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        kept = sorted(folder.glob("session-*.ebs"), key=lambda p: p.stat().st_mtime)
+        for old in kept[:max(0, len(kept) - (keep - 1))]:  # room for this one
+            old.unlink()
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        path = next(p for k in range(1, 1000)
+                    if not (p := folder / f"session-{stamp}{'' if k == 1 else f'-{k}'}.ebs").exists())
+        return SessionRecorder(path, session_header(game, game.prefs.input))
+    except OSError as e:
+        game.notices.append(f"this session is not kept ({shown(folder)}: {e.strerror or e})")
+        return None
 
 
 def session_summary(game: "Game") -> dict:
