@@ -40,6 +40,8 @@ DURATION = Ranged(float, 0, 86_400, above=True)  # a match of up to a day of pla
 WORKERS = Ranged(int, 1, 64)
 TRIALS = Ranged(int, 1, 10_000)
 GESTURES = Ranged(int, 1, 1_000)
+SPEED = Ranged(float, 0.25, 8.0)
+FROM = Ranged(float, 0.0, 86_400.0)
 
 
 def _port(text: str) -> str:
@@ -148,8 +150,14 @@ def _folder(path: str | None) -> str | None:
 def cmd_replay(args: argparse.Namespace) -> int:
     from tracker.recording import RecordingError
     from .replay.replay import replay
+    if not args.headless and not display_available():
+        raise UsageError("no display found, so the replay cannot be shown: add --headless")
     try:
-        report = replay(args.file)
+        if args.headless:
+            report = replay(args.file)
+        else:
+            from .ui.replay_window import watch
+            report = watch(args.file, start_s=args.start, speed=args.speed)
     except RecordingError as e:
         raise UsageError(str(e)) from None
     out = report.to_json()
@@ -310,10 +318,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("replay", help="play a session recording again (--record) and compare")
     p.add_argument("file", metavar="FILE")
-    p.add_argument("--headless", action="store_true", help="no window (the only way for now)")
+    p.add_argument("--headless", action="store_true", help="no window: play it through and report")
+    p.add_argument("--speed", type=SPEED, default=1.0, help=f"in the window, times the recorded pace, {SPEED.text} (1)")
+    p.add_argument("--from", dest="start", type=FROM, default=0.0, metavar="T",
+                   help=f"in the window, start showing at T seconds of play, {FROM.text} (0)")
     p.add_argument("--json", action="store_true", default=argparse.SUPPRESS,
                    help="the session's summary, its launches and every event, as JSON")
-    p.set_defaults(func=cmd_replay, options=("json", "headless"))
+    p.set_defaults(func=cmd_replay, options=("json", "headless", "speed", "start"))
 
     p = sub.add_parser("shots", help="render every screen to PNG (dummy video driver)")
     p.add_argument("--out", required=True, metavar="DIR")

@@ -21,7 +21,7 @@ import json
 import tempfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Callable, Iterator
+from typing import Iterator, Protocol
 
 from tracker.calibration import BoardCalibration
 from tracker.session_recording import BinaryRecord, SessionReader
@@ -136,10 +136,19 @@ class ReplayReport:
                 "stopped": self.stopped, "events": self.events}
 
 
-def replay(path: str | Path, draw: Callable[[object], bool] | None = None) -> ReplayReport:
-    """Play a session recording again (headless unless ``draw`` is given: it is called after each
-    frame with the app and returns False to stop)."""
-    if draw is None:
+class Viewer(Protocol):
+    """Who watches a replay in a window (:mod:`game.ui.replay_window`)."""
+
+    def drawing(self, t: float) -> bool:
+        """Whether the frame at game time ``t`` is to be drawn (not while seeking ahead)."""
+
+    def after(self, app: object, t: float) -> bool:
+        """The frame at ``t`` is done (and drawn if asked): show it; False to stop the replay."""
+
+
+def replay(path: str | Path, viewer: Viewer | None = None) -> ReplayReport:
+    """Play a session recording again: headless, or in a window a ``viewer`` watches."""
+    if viewer is None:
         from ..sim.headless import without_window
         without_window()
     from ..ui.app import App
@@ -154,7 +163,7 @@ def replay(path: str | Path, draw: Callable[[object], bool] | None = None) -> Re
         _saved_boards(Path(folder), header.get("boards", {}))
         prefs = replace(Preferences(**header["settings"]), input="keyboard", volume=0.0, music_volume=0.0)
         app = App(prefs, config_dir=Path(folder), seed=int(header["seed"]), size=tuple(header["window"]),
-                  draws=draw is not None, session=lambda game: log)
+                  draws=viewer is not None, session=lambda game: log)
         game = app.game
         app.scans_for_boards = False
         source: list[ReplaySource] = []
@@ -183,13 +192,14 @@ def replay(path: str | Path, draw: Callable[[object], bool] | None = None) -> Re
             if frame.walk is not None:
                 walking[0] = frame.walk
             done = len(log.happened)
-            app.frame([event_from_json(e) for e in frame.events], frame.dt, draw=draw is not None)
+            app.frame([event_from_json(e) for e in frame.events], frame.dt,
+                      draw=viewer is not None and viewer.drawing(log.t))
             report.frames, report.t = number, log.t
             replayed = log.happened[done].to_json() if len(log.happened) > done else None
             recorded = frame.happened.to_json() if frame.happened else None
             if report.difference is None and replayed != recorded:
                 report.difference = Difference(number, log.t, recorded, replayed)
-            if draw is not None and not draw(app) or not app.running:
+            if viewer is not None and not viewer.after(app, log.t) or not app.running:
                 break
         report.summary = session_summary(game)
         app.close()

@@ -203,3 +203,44 @@ def test_record_dir_on_the_command_line(tmp_path):
     bad.write_text("")
     r = run_cli("--headless", "--duration", "10", "--record-dir", str(bad), home=tmp_path)
     assert r.returncode == 1 and "--record-dir" in r.stderr and "Traceback" not in r.stderr
+
+
+def pressing(window, monkeypatch, keys_at):
+    """The window's keys posted as a player presses them: {game time: key}."""
+    real_after = window.after
+
+    def after(app, t):
+        for at in sorted(a for a in keys_at if t >= a):
+            pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=keys_at.pop(at), mod=0, unicode=""))
+        return real_after(app, t)
+
+    monkeypatch.setattr(window, "after", after)
+
+
+def test_the_window_starts_where_asked_seeks_and_speeds_up_on_its_keys(keyboard_session, monkeypatch):
+    """The viewer under the dummy driver: frames before --from are not drawn; Right skips 5 s
+    undrawn; Up doubles the speed; Left asks to start again 5 s back (watch() then replays from there)."""
+    from game.ui import replay_window as W
+
+    path, _ = keyboard_session
+    monkeypatch.setattr(W.time, "sleep", lambda s: None)  # no pacing: the test runs as fast as it can
+    window = W.ReplayWindow(path, start_s=10.0)
+    drawn = []
+    real_show = window._show
+    monkeypatch.setattr(window, "_show", lambda app, picture, t: (drawn.append(t), real_show(app, picture, t)))
+    pressing(window, monkeypatch, {11.0: pygame.K_RIGHT, 17.0: pygame.K_UP, 18.0: pygame.K_LEFT})
+    report = W.replay(path, window)
+    assert min(drawn) >= 10.0 and not any(11.05 < t < 16.0 for t in drawn)  # 11 -> 16 skipped, undrawn
+    assert window.speed == 2.0 and window.restart_at == pytest.approx(max(drawn) - 5.0, abs=0.05)
+    assert report.difference is None
+
+
+def test_esc_ends_the_window_early(keyboard_session, monkeypatch):
+    from game.ui import replay_window as W
+
+    path, _ = keyboard_session
+    monkeypatch.setattr(W.time, "sleep", lambda s: None)
+    window = W.ReplayWindow(path)
+    pressing(window, monkeypatch, {3.0: pygame.K_ESCAPE})
+    report = W.replay(path, window)
+    assert window.quit and report.t == pytest.approx(3.0, abs=0.05)
