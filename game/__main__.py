@@ -41,6 +41,7 @@ WORKERS = Ranged(int, 1, 64)
 TRIALS = Ranged(int, 1, 10_000)
 GESTURES = Ranged(int, 1, 1_000)
 SPEED = Ranged(float, 0.25, 8.0)
+FILTER_NAMES = ("complementary", "gravmag", "madgwick", "switching", "hinge", "default")  # tracker.fusion.FILTERS
 FROM = Ranged(float, 0.0, 86_400.0)
 
 
@@ -147,26 +148,62 @@ def _folder(path: str | None) -> str | None:
     return path
 
 
+def _gesture_settings(path: str | None):
+    """The gesture settings in a JSON file (GestureSettings' keys), or a UsageError saying what is wrong."""
+    if path is None:
+        return None
+    from tracker.userjson import read_json
+    from .body.gestures import GestureSettings
+    try:
+        data = read_json(path)
+        if not isinstance(data, dict):
+            raise ValueError(f"{path}: expected a JSON object of gesture settings")
+        return GestureSettings(**data)
+    except TypeError as e:  # a key GestureSettings does not have
+        raise UsageError(f"--gestures {path}: {e}".replace("__init__() ", "")) from None
+    except (ValueError, OSError) as e:
+        raise UsageError(f"--gestures {path}: {e.strerror if isinstance(e, OSError) else e}") from None
+
+
 def cmd_replay(args: argparse.Namespace) -> int:
     from tracker.recording import RecordingError
     from .replay.replay import replay
-    if not args.headless and not display_available():
+    from .replay.rescore import Rescorer, plot
+    if args.plot:
+        _output(args.plot)
+    rescoring = args.filter or args.gestures or args.plot  # a re-scoring plays headless
+    rescorer = Rescorer(args.filter, _gesture_settings(args.gestures)) if rescoring else None
+    if not args.headless and rescorer is None and not display_available():
         raise UsageError("no display found, so the replay cannot be shown: add --headless")
     try:
-        if args.headless:
-            report = replay(args.file)
+        if args.headless or rescorer is not None:
+            report = replay(args.file, rescorer=rescorer)
         else:
             from .ui.replay_window import watch
             report = watch(args.file, start_s=args.start, speed=args.speed)
     except RecordingError as e:
         raise UsageError(str(e)) from None
     out = report.to_json()
+    if rescorer is not None:
+        out["rescored"] = rescorer.compare()
+        if args.filter and not rescorer.samples:
+            raise UsageError(f"{args.file} holds no board samples in play (a keyboard session?): "
+                             "--filter has nothing to re-score")
+        if args.plot:
+            try:
+                plot(rescorer, args.plot, f"{Path(args.file).name}: the game against {out['rescored']['filter']}")
+            except RuntimeError as e:  # matplotlib missing
+                raise UsageError(str(e)) from None
     if args.json:
         print(json.dumps(out))
     else:
         for key in ("frames", "seconds", "summary", "same_as_recorded"):
             print(f"{key:18s} {out[key]}")
         print(f"{'launches':18s} {len(out['launches'])}")
+        if "rescored" in out:
+            r = out["rescored"]
+            print(f"{'rescored':18s} {r['other_launches']} launches: {len(r['appeared'])} appeared, "
+                  f"{len(r['disappeared'])} disappeared, {len(r['moved'])} moved")
     if report.difference:
         print(f"energyball: the replay differs from the recording from frame {report.difference.frame} "
               f"({report.difference.t:.2f} s): recorded {report.difference.recorded}, "
@@ -324,7 +361,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"in the window, start showing at T seconds of play, {FROM.text} (0)")
     p.add_argument("--json", action="store_true", default=argparse.SUPPRESS,
                    help="the session's summary, its launches and every event, as JSON")
-    p.set_defaults(func=cmd_replay, options=("json", "headless", "speed", "start"))
+    p.add_argument("--filter", choices=FILTER_NAMES, help="re-score: the recorded samples through this filter")
+    p.add_argument("--gestures", metavar="SETTINGS.json", help="re-score: with these gesture settings")
+    p.add_argument("--plot", metavar="PNG", help="re-score: the elbow, elevation and state over time, launches marked")
+    p.set_defaults(func=cmd_replay, options=("json", "headless", "speed", "start", "filter", "gestures", "plot"))
 
     p = sub.add_parser("shots", help="render every screen to PNG (dummy video driver)")
     p.add_argument("--out", required=True, metavar="DIR")

@@ -33,8 +33,8 @@ from numpy.typing import NDArray
 
 from . import quat as Q
 from . import sim
-from .atomic import AtomicFile
 from .evaluate import error_angles
+from .figures import figure, save_png
 from .fusion import make
 
 Array = NDArray[np.float64]
@@ -304,25 +304,10 @@ def finger_grasp(durations: Sequence[float] = tuple(np.logspace(-1, 3, 32)), rat
 # ------------------------------------------------------------ figures
 
 
-def _figure(width_in: float, height_in: float):
-    """A matplotlib Figure (no pyplot, no global state), or a clear error without matplotlib."""
-    try:
-        from matplotlib.figure import Figure
-    except ImportError:
-        raise RuntimeError("matplotlib is not installed: pip install '.[plot]'") from None
-    return Figure(figsize=(width_in, height_in), layout="tight")
-
-
-def _save_png(fig, path: str | os.PathLike) -> None:
-    """Write the figure as PNG atomically (ARCHITECTURE.md: nothing saved is half-written)."""
-    with AtomicFile(path, "wb") as f:
-        fig.savefig(f.file, format="png", dpi=120)
-
-
 def plot_static_drift(result: dict, path: str | os.PathLike) -> None:
     """The hand-tracking paper, Figs. 11-12 in one chart: each IMU's final error with correction off and on."""
     imus = result["imus"]
-    fig = _figure(6, 4)
+    fig = figure(6, 4)
     ax = fig.subplots()
     x = np.arange(len(imus))
     ax.bar(x - 0.2, [m["error_deg_off"] for m in imus], 0.4, label="correction off")
@@ -332,13 +317,13 @@ def plot_static_drift(result: dict, path: str | os.PathLike) -> None:
     ax.set_ylabel(f"orientation error after {result['minutes']:g} min (deg)")
     ax.set_title("Static drift (the IMU and infrared hand-tracking paper, sec. 4.1)")
     ax.legend()
-    _save_png(fig, path)
+    save_png(fig, path)
 
 
 def plot_finger_grasp(result: dict, path: str | os.PathLike) -> None:
     """The finger-tracking paper, Figure 10: RMS error against motion duration, one panel per error series."""
     series = result["series"]
-    fig = _figure(4.5 * len(series), 4)
+    fig = figure(4.5 * len(series), 4)
     axes = np.atleast_1d(fig.subplots(1, len(series), sharey=True))
     for ax, (name, rms) in zip(axes, series.items()):
         for algorithm, values in rms.items():
@@ -350,4 +335,4 @@ def plot_finger_grasp(result: dict, path: str | os.PathLike) -> None:
     axes[0].legend()
     fig.suptitle("Finger grasp (Inertial Sensor Based Solution for Finger Motion Tracking, Computers 9(2):40, 2020, "
                  "sec. 3, Figure 10)")
-    _save_png(fig, path)
+    save_png(fig, path)

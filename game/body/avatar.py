@@ -156,6 +156,7 @@ class Avatar:
     local: dict[str, Quat] = field(init=False)
     world_rot: dict[str, Quat] = field(init=False)
     world_pos: dict[str, Vec] = field(init=False)
+    state: ArmState | None = field(init=False, default=None)  # the last update's
 
     def __post_init__(self) -> None:
         self.bones = skeleton(self.body)
@@ -223,9 +224,10 @@ class Avatar:
         self.forward_kinematics(arm)
         pointing = q.rotate(self.world_rot[f"{side}_upper_arm"], (0.0, 0.0, -1.0))
         elevation = math.degrees(math.acos(max(-1.0, min(1.0, -pointing[2]))))
-        return ArmState(arm.t, np.array(self.world_pos[f"{side}_upper_arm"]),
-                        np.array(self.world_pos[f"{side}_forearm"]), np.array(self.world_pos[f"{side}_hand"]),
-                        np.array(self.end_of(f"{side}_hand")), np.array(pointing), elevation, arm.flex_deg)
+        self.state = ArmState(arm.t, np.array(self.world_pos[f"{side}_upper_arm"]),
+                              np.array(self.world_pos[f"{side}_forearm"]), np.array(self.world_pos[f"{side}_hand"]),
+                              np.array(self.end_of(f"{side}_hand")), np.array(pointing), elevation, arm.flex_deg)
+        return self.state
 
 
 def _add(a: Vec, b: Vec) -> Vec:

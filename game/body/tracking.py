@@ -18,6 +18,7 @@ import numpy as np
 from tracker import protocol as P
 from tracker.calibration import BiasResult, BoardCalibration, startup_bias
 from tracker.flex import FlexCalibration, FlexTracker
+from tracker.fusion.base import Filter
 from tracker.fusion.default import DefaultFilter
 from tracker.fusion.qmath import as_vec
 
@@ -33,7 +34,7 @@ class Tracking:
     use_magnetometer: bool = True
     board: BoardCalibration = field(default_factory=BoardCalibration)
     flex_calibration: FlexCalibration | None = None
-    filter: DefaultFilter = field(default_factory=DefaultFilter)
+    filter: Filter = field(default_factory=DefaultFilter)  # another (tracker.fusion.make) to compare
     flex: FlexTracker = field(init=False)
     _last_t: float | None = None
     _dt: float = 0.005
@@ -80,9 +81,12 @@ class Tracking:
         gyr = np.array([s.gyr for s in raw]) - self.board.gyro_bias
         acc = np.array([s.acc for s in raw])
         result = startup_bias(t, gyr, acc)
-        bias = as_vec(result.bias) if result.ok else self.filter.get_state().bias
-        self.reset()
-        state = self.filter.get_state()
-        state.bias = bias
-        self.filter.set_state(state)
+        if isinstance(self.filter, DefaultFilter):  # the filter that estimates the bias keeps the best known
+            bias = as_vec(result.bias) if result.ok else self.filter.get_state().bias
+            self.reset()
+            state = self.filter.get_state()
+            state.bias = bias
+            self.filter.set_state(state)
+        else:
+            self.reset()
         return result, [self.feed(s) for s in raw]

@@ -32,6 +32,7 @@ from ..world.arena import ArenaSettings
 from ..world.arena_model import Controls
 from . import samples as S
 from .log import Happened, SessionLog
+from .rescore import Rescorer
 
 
 @dataclass
@@ -146,12 +147,13 @@ class Viewer(Protocol):
         """The frame at ``t`` is done (and drawn if asked): show it; False to stop the replay."""
 
 
-def replay(path: str | Path, viewer: Viewer | None = None) -> ReplayReport:
-    """Play a session recording again: headless, or in a window a ``viewer`` watches."""
+def replay(path: str | Path, viewer: Viewer | None = None, rescorer: Rescorer | None = None) -> ReplayReport:
+    """Play a session recording again: headless, or in a window a ``viewer`` watches; a ``rescorer``
+    runs its second pipeline beside it (:mod:`game.replay.rescore`)."""
     if viewer is None:
         from ..sim.headless import without_window
         without_window()
-    from ..ui.app import App
+    from ..ui.app import App, Play
     from ..ui.preferences import Preferences
     from ..ui.session_events import event_from_json, session_summary
 
@@ -192,10 +194,13 @@ def replay(path: str | Path, viewer: Viewer | None = None) -> ReplayReport:
             if frame.walk is not None:
                 walking[0] = frame.walk
             done = len(log.happened)
+            playing = isinstance(app.screen, Play)
             app.frame([event_from_json(e) for e in frame.events], frame.dt,
                       draw=viewer is not None and viewer.drawing(log.t))
             report.frames, report.t = number, log.t
             replayed = log.happened[done].to_json() if len(log.happened) > done else None
+            if rescorer is not None and playing:
+                rescorer.frame(game, frame.polls, replayed["gestures"] if replayed else [])
             recorded = frame.happened.to_json() if frame.happened else None
             if report.difference is None and replayed != recorded:
                 report.difference = Difference(number, log.t, recorded, replayed)

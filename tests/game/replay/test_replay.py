@@ -244,3 +244,57 @@ def test_esc_ends_the_window_early(keyboard_session, monkeypatch):
     pressing(window, monkeypatch, {3.0: pygame.K_ESCAPE})
     report = W.replay(path, window)
     assert window.quit and report.t == pytest.approx(3.0, abs=0.05)
+
+
+def test_rescoring_with_the_games_own_settings_changes_no_launch(virtual_session, tmp_path):
+    from game.body.gestures import GestureSettings
+    from game.replay.rescore import Rescorer
+
+    path, _ = virtual_session
+    rescorer = Rescorer(None, GestureSettings())
+    replay(path, rescorer=rescorer)
+    out = rescorer.compare()
+    assert out["launches"] == out["other_launches"] > 0
+    assert out["appeared"] == out["disappeared"] == out["moved"] == []
+
+
+def test_rescoring_with_a_flex_on_no_keyboard_bend_reaches_loses_every_launch(keyboard_session, tmp_path):
+    """Worked by hand: the keyboard bends the elbow to 100 deg (game.body.controls), so with flex-on
+    at 110 no spin starts and every launch of the game disappears."""
+    path, live = keyboard_session
+    settings = tmp_path / "g.json"
+    settings.write_text(json.dumps({"flex_on_deg": 110.0, "flex_off_deg": 25.0}))
+    r = run_cli("replay", str(path), "--gestures", str(settings), "--json", "--plot", str(tmp_path / "p.png"),
+                home=tmp_path)
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)["rescored"]
+    launches = sum(1 for e in live["events"] for g in e["gestures"] if g[0] == "launch")
+    assert out["launches"] == launches > 0 and out["other_launches"] == 0
+    assert len(out["disappeared"]) == launches and out["appeared"] == out["moved"] == []
+    assert (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_another_filter_accounts_for_every_launch(virtual_session):
+    from game.replay.rescore import Rescorer
+
+    path, _ = virtual_session
+    rescorer = Rescorer("madgwick", None)
+    replay(path, rescorer=rescorer)
+    out = rescorer.compare()
+    assert out["samples"] > 1000
+    kept = out["launches"] - len(out["disappeared"])  # matched: moved or the same
+    assert kept + len(out["appeared"]) == out["other_launches"] and len(out["moved"]) <= kept
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--filter", "default"], "holds no board samples"),
+    (["--gestures", "{missing}"], "No such file"),
+    (["--gestures", "{bad}"], "flex_on_deg"),
+])
+def test_rescoring_mistakes_are_one_clear_line(keyboard_session, tmp_path, args, words):
+    path, _ = keyboard_session
+    (tmp_path / "bad.json").write_text(json.dumps({"flex_on_deg": "high"}))
+    args = [a.format(missing=tmp_path / "none.json", bad=tmp_path / "bad.json") for a in args]
+    r = run_cli("replay", str(path), *args, home=tmp_path)
+    assert r.returncode == 1 and "Traceback" not in r.stderr
+    assert words in r.stderr and len(r.stderr.strip().splitlines()) == 1
