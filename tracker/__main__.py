@@ -556,7 +556,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_evaluate)
 
     p = sub.add_parser("fuse", help="run a filter over a recording or trial file")
-    p.add_argument("input", metavar="IN", help=".bin or .csv recording, or a .npz trial")
+    p.add_argument("input", metavar="IN", help=".bin or .csv recording, a game session (.ebs), or a .npz trial")
     p.add_argument("--filter", default="default")
     p.add_argument("--dof", type=int, choices=[6, 9], default=6)
     p.add_argument("--out", required=True, metavar="OUT.npz")

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from tracker import protocol as P
+from tracker.fuse import fuse_file
 from tracker.recording import MAGIC as RAW_MAGIC, RecordingError, decode_file, summarize
 from tracker.session_recording import (BLOCK_HEAD, MAGIC, WIRE, BinaryRecord, SessionReader, SessionWriter)
 
@@ -169,3 +170,4 @@ def test_armtracker_decode_reads_the_boards_bytes_of_a_session(tmp_path):
     assert [(s.seq, s.acc_counts, s.gyr_counts) for s in got] == [(s.seq, s.acc_counts, s.gyr_counts) for s in samples]
     assert replay.hello == hello and replay.stats.crc_errors == 0 and replay.stats.bytes_skipped == 0
     assert summarize(path).samples == 400
+    assert fuse_file(path, "madgwick", 6, tmp_path / "q.npz") == 400  # armtracker fuse reads it too
