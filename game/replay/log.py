@@ -14,6 +14,7 @@ Record types (each documented in the file's header, ``RECORDS``):
 ``source`` the game switched its input: {"kind": "keyboard" | "board", "calibration": board calibration};
 ``walk``   the walking input from this frame on: [forward, strafe, turn];
 ``round``  a round begins: {"arena": the arena's settings, or null for the defaults};
+``hold``   a calibration hold as it happened: the step, the wearing it gave, the arm-down hold's gyro bias;
 ``happened`` {"t": game time, "arena": [[kind, x, y, z, value], ...], "gestures": [[kind, t, dx, dy, dz, charge], ...]};
 binary channel 1 the samples of one poll (:mod:`game.replay.samples`), in the order polled;
 binary channel 0 the board's bytes as they arrived, with the host's receive time;
@@ -27,10 +28,12 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Sequence
 
+from tracker.calibration import BiasResult
 from tracker.session_recording import WIRE, SessionWriter
 
 from ..body.controls import SourceState
 from ..body.gestures import GestureEvent
+from ..body.wearing import CalibrationResult
 from ..world.arena import ArenaSettings
 from ..world.arena_model import ArenaEvent, Controls
 from . import samples as S
@@ -41,6 +44,7 @@ RECORDS = {
     "source": "the game switched its input (keyboard, or a board, virtual or not, with the calibration it was given)",
     "walk": "the walking input [forward, strafe, turn] from this frame on",
     "round": "a round begins, in an arena with these settings (null: the defaults)",
+    "hold": "a calibration hold as it happened: its step, the wearing it gave, the gyroscope bias of the arm-down hold",
     "happened": "what the frame did: arena events [kind, x, y, z, value], gesture events [kind, t, dx, dy, dz, charge]",
     "channel 1": "the samples of one poll, in the order polled (game.replay.samples)",
     "channel 0": "the board's bytes as they arrived (t: host seconds since the session began)",
@@ -85,6 +89,15 @@ class SessionLog:
 
     def poll(self, samples: list[S.Sample]) -> None:
         """One poll of the input source and the samples it gave."""
+
+    def hold(self, step: str, result: CalibrationResult, bias: BiasResult | None) -> None:
+        """A calibration hold as it happened: the wearing it gave, and for the arm down the gyroscope's
+        bias the hold gave (None: keyboard, no board)."""
+        self._write({"type": "hold", "step": step, "ok": result.ok, "message": result.message,
+                     "wearing": {"mount": list(result.wearing.mount), "init": list(result.wearing.init)}
+                     if result.ok else None,
+                     "gyro_bias": None if bias is None else {"ok": bias.ok, "message": bias.message,
+                                                             "rad_s": [float(b) for b in bias.bias]}})
 
     def round(self, settings: ArenaSettings | None) -> None:
         """A round begins in an arena with these settings (None: the defaults)."""

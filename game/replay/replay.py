@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Iterator, Protocol
 
 from tracker.calibration import BoardCalibration
+from tracker.recording import RecordingError, summarize
 from tracker.session_recording import BinaryRecord, SessionReader
 
 from ..body.controls import SampleInput, SourceState
@@ -46,6 +47,7 @@ class Frame:
     polls: list[list[S.Sample]] = field(default_factory=list)  # each poll's samples, in order
     walk: Controls | None = None  # the walking input from this frame on (None: unchanged)
     arena: list[dict | None] = field(default_factory=list)  # the settings of each round begun in it
+    holds: list[dict] = field(default_factory=list)  # calibration holds, as recorded
     happened: Happened | None = None
 
 
@@ -70,6 +72,8 @@ def frames(reader: SessionReader) -> Iterator[Frame]:
             current.walk = Controls(*record["c"])
         elif kind == "round":
             current.arena.append(record["arena"])
+        elif kind == "hold":
+            current.holds.append(record)
         elif kind == "happened":
             current.happened = Happened(record["t"], record["arena"], record["gestures"])
     yield current
@@ -126,13 +130,16 @@ class ReplayReport:
     summary: dict = field(default_factory=dict)
     difference: Difference | None = None
     stopped: str | None = None  # why the recording ended early (cut off, damaged)
+    holds: list[dict] = field(default_factory=list)  # the calibration holds, as recorded
+    link: dict | None = None  # the board's link, from its bytes in the recording (None: no board)
 
     def to_json(self) -> dict:
         launches = [{"t": e["t"], "direction": g[2:5], "charge": g[5]}
                     for e in self.events for g in e["gestures"] if g[0] == "launch"]
         return {"recorded": {k: self.header.get(k) for k in ("created", "game_version", "seed", "input")},
                 "frames": self.frames, "seconds": round(self.t, 6), "summary": self.summary,
-                "launches": launches, "same_as_recorded": self.difference is None,
+                "launches": launches, "holds": self.holds, "link": self.link,
+                "same_as_recorded": self.difference is None,
                 "difference": self.difference.to_json() if self.difference else None,
                 "stopped": self.stopped, "events": self.events}
 
@@ -187,6 +194,7 @@ def replay(path: str | Path, viewer: Viewer | None = None, rescorer: Rescorer | 
                 for r in frame.sources:
                     game.use_board(None, r["virtual"]) if r["kind"] == "board" else game.use_keyboard()
                 continue
+            report.holds += frame.holds
             if frame.arena:  # the round begun in this frame is in an arena of these settings
                 game.arena_settings = ArenaSettings(**frame.arena[-1]) if frame.arena[-1] else None
             if source:
@@ -210,7 +218,19 @@ def replay(path: str | Path, viewer: Viewer | None = None, rescorer: Rescorer | 
         app.close()
     report.events = [h.to_json() for h in log.happened]
     report.stopped = reader.stopped
+    report.link = _link(path)
     return report
+
+
+def _link(path: str | Path) -> dict | None:
+    """The board's link as its bytes in the recording tell it (decoded as ``armtracker decode`` does)."""
+    try:
+        summary = summarize(path)
+    except RecordingError:  # no board in the session (the keyboard)
+        return None
+    out = summary.to_json()
+    return {key: out[key] for key in ("samples", "crc_errors", "dropped", "bytes_skipped", "duration_s",
+                                      "board_restarts")}
 
 
 def _saved_boards(folder: Path, boards: dict) -> None:

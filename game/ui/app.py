@@ -351,6 +351,7 @@ class Calibration:
     def complete_step(self) -> None:
         game = self.game
         if self.step == "down":
+            bias = None
             if game.tracker and game.tracker.recent:
                 newest = game.tracker.recent[-1].t
                 hold = [s for s in game.tracker.recent if s.t >= newest - HOLD_S["down"]]
@@ -359,6 +360,8 @@ class Calibration:
                 # learns the bias in play. The pose decides (arm_down says if the arm moved).
                 self.bias_learned = bias.ok
             result = arm_down(game.avatar, self.poses["down"])
+            if game.log is not None:
+                game.log.hold("down", result, bias)
             if not result.ok:
                 return self.fail(result.message)
             game.avatar.wearing = result.wearing
@@ -366,6 +369,8 @@ class Calibration:
             game.audio.play("click")
             return None
         result = arm_down_then_forward(game.avatar, self.poses["down"], self.poses["forward"])
+        if game.log is not None:
+            game.log.hold("forward", result, None)
         if not result.ok:
             return self.fail(result.message)
         game.avatar.wearing = result.wearing

@@ -190,8 +190,11 @@ def test_a_headless_match_kept_with_record_dir_replays_to_its_own_report(tmp_pat
     report = replay(tmp_path / "match-3.ebs")
     assert report.difference is None and report.stopped is None
     assert (report.summary["score"], report.summary["kills"]) == (match["score"], match["kills"])
-    launches = report.to_json()["launches"]
-    assert len(launches) == match["detected_launches"] > 0
+    out = report.to_json()
+    assert len(out["launches"]) == match["detected_launches"] > 0
+    assert [h["step"] for h in out["holds"]] == ["down", "forward"] and all(h["ok"] for h in out["holds"])
+    assert out["holds"][0]["gyro_bias"]["ok"]  # the bot's hold gave the gyroscope's bias
+    assert out["link"]["samples"] == match["frames_decoded"] and out["link"]["crc_errors"] == 0
 
 
 def test_record_dir_on_the_command_line(tmp_path):
