@@ -41,7 +41,6 @@ WORKERS = Ranged(int, 1, 64)
 TRIALS = Ranged(int, 1, 10_000)
 GESTURES = Ranged(int, 1, 1_000)
 SPEED = Ranged(float, 0.25, 8.0)
-FILTER_NAMES = ("complementary", "gravmag", "madgwick", "switching", "hinge", "default")  # tracker.fusion.FILTERS
 FROM = Ranged(float, 0.0, 86_400.0)
 
 
@@ -308,6 +307,8 @@ def cmd_gestures_eval(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from tracker.fusion import FILTERS
+
     from .sim.bot import DIFFICULTIES
 
     parser = Parser(prog="energyball", description=(
@@ -354,14 +355,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_gestures_eval, options=("profile", "json"))
 
     p = sub.add_parser("replay", help="play a session recording again (--record) and compare")
-    p.add_argument("file", metavar="FILE")
+    p.add_argument("file", metavar="FILE", help="a session recording (--record, --record-dir, or a kept session)")
     p.add_argument("--headless", action="store_true", help="no window: play it through and report")
     p.add_argument("--speed", type=SPEED, default=1.0, help=f"in the window, times the recorded pace, {SPEED.text} (1)")
     p.add_argument("--from", dest="start", type=FROM, default=0.0, metavar="T",
                    help=f"in the window, start showing at T seconds of play, {FROM.text} (0)")
     p.add_argument("--json", action="store_true", default=argparse.SUPPRESS,
                    help="the session's summary, its launches and every event, as JSON")
-    p.add_argument("--filter", choices=FILTER_NAMES, help="re-score: the recorded samples through this filter")
+    p.add_argument("--filter", choices=FILTERS, help="re-score: the recorded samples through this filter")
     p.add_argument("--gestures", metavar="SETTINGS.json", help="re-score: with these gesture settings")
     p.add_argument("--plot", metavar="PNG", help="re-score: the elbow, elevation and state over time, launches marked")
     p.set_defaults(func=cmd_replay, options=("json", "headless", "speed", "start", "filter", "gestures", "plot"))
