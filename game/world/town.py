@@ -20,8 +20,8 @@ Promises (the tests check each against an independent sampling):
   the open alleys) is clear and connected to the start.
 
 Layouts (:data:`LAYOUTS`), chosen by the seed unless named:
-  ``grid``        three streets each way, a grid of small blocks; the start
-                  is the middle crossing.
+  ``grid``        three streets east-west crossed by two north-south: a
+                  grid of blocks; the start is on the middle street.
   ``crossroads``  two wide main streets crossing at a central square, one
                   narrower street each way on a side the seed picks; large
                   blocks get a back alley.
@@ -150,7 +150,7 @@ class TownSettings:
       ``half_size_m`` 24: the town is a 48 m square about the origin.
       ``start_radius_m`` 4: no obstacle within this of the start (the origin).
     Open ground:
-      ``street_width_m`` (5.5, 7.5): a street's width (the main streets of
+      ``street_width_m`` (5, 7): a street's width (the main streets of
       ``crossroads``: ``main_street_m`` 8).
       ``square_half_m`` (6, 8): half the side of the central square
       (``crossroads``, ``ring``).
@@ -160,9 +160,9 @@ class TownSettings:
     Blocks:
       ``lot_length_m`` (5, 10): a lot's frontage (the last lot of a block
       takes what is left, up to ``lot_length_m[1] + lot_min_m``); ``lot_min_m`` 4.
-      ``alley_chance`` 0.3: after a lot, an alley (if the block has room).
+      ``alley_chance`` 0.4: after a lot, an alley (if the block has room).
       ``setback_m`` (0.8, 1.5): the pavement between a block's edge and its buildings.
-      ``building_chance`` 0.5, ``ruin_chance`` 0.3: what a lot holds; the
+      ``building_chance`` 0.55, ``ruin_chance`` 0.3: what a lot holds; the
       rest are empty plots behind a fence, with ``plot_car_chance`` 0.3 of a wreck in it.
     Streets:
       ``car_per_m`` 0.06: tries at a wrecked car per metre of street (some
@@ -179,16 +179,16 @@ class TownSettings:
 
     half_size_m: float = 24.0
     start_radius_m: float = 4.0
-    street_width_m: tuple[float, float] = (5.5, 7.5)
+    street_width_m: tuple[float, float] = (5.0, 7.0)
     main_street_m: float = 8.0
     square_half_m: tuple[float, float] = (6.0, 8.0)
     alley_width_m: tuple[float, float] = (2.6, 3.4)
     deep_block_m: float = 18.0
     lot_length_m: tuple[float, float] = (5.0, 10.0)
     lot_min_m: float = 4.0
-    alley_chance: float = 0.3
+    alley_chance: float = 0.4
     setback_m: tuple[float, float] = (0.8, 1.5)
-    building_chance: float = 0.5
+    building_chance: float = 0.55
     ruin_chance: float = 0.3
     plot_car_chance: float = 0.3
     car_per_m: float = 0.06
@@ -274,13 +274,13 @@ def _square(half: float) -> Street:
 
 
 def _grid(rng: np.random.Generator, s: TownSettings) -> list[Street]:
-    """Three streets each way, edge to edge: the middle ones cross at the start."""
+    """Three streets east-west (the start on the middle one) and two north-south, edge to edge."""
     h = s.half_size_m
-    out = []
-    for along_x in (True, False):
-        spacing = float(rng.uniform(0.5, 0.62)) * h
-        for centre in (-spacing + float(rng.uniform(-1.0, 1.0)), 0.0, spacing + float(rng.uniform(-1.0, 1.0))):
-            out.append(_street(along_x, centre, float(rng.uniform(*s.street_width_m)), -h, h))
+    spacing = float(rng.uniform(0.5, 0.62)) * h
+    out = [_street(True, centre, float(rng.uniform(*s.street_width_m)), -h, h)
+           for centre in (-spacing + float(rng.uniform(-1.0, 1.0)), 0.0, spacing + float(rng.uniform(-1.0, 1.0)))]
+    offset = float(rng.uniform(0.3, 0.45)) * h
+    out += [_street(False, centre, float(rng.uniform(*s.street_width_m)), -h, h) for centre in (-offset, offset)]
     return out
 
 
