@@ -26,9 +26,11 @@ def push_out(town: Town, x: float, y: float, radius: float) -> tuple[float, floa
     Against one box: the circle's centre is moved away from the box's
     closest point to it until it is ``radius`` away, so only the component
     of a walk that presses into a face is taken back and the walk along the
-    face is kept: the body slides along walls. A centre inside a box leaves
-    it across the nearest face. Several boxes (a corner) are worked through
-    in turn, for up to ``PASSES`` rounds, until none overlaps.
+    face is kept: the body slides along walls. Several boxes (a corner) are
+    worked through in turn, for up to ``PASSES`` rounds, until none
+    overlaps. A centre inside a box leaves it across the nearest face; a
+    walking body, pushed out every step, never gets its centre inside one
+    (deep inside a row of touching buildings that face may lead into the next).
     """
     grid, h = town.grid, town.half_size_m - radius
     for _ in range(PASSES):
