@@ -124,9 +124,11 @@ class Navigator:
         self._exits: list[int] = []
         self._lengths: list[float] = []
         self._entries: list[int] = []
-        # per portal, what waypoint() reads: (vertical, line, lo, hi, margin, low region)
+        # per portal, what waypoint() reads: (vertical, line, lo, hi, margin, low region, high region)
         half = s.cell_m / 2.0
-        self._steer = [(p.vertical, p.line, p.lo, p.hi, min(half, (p.hi - p.lo) / 2.0), p.low) for p in self.portals]
+        self._steer = [(p.vertical, p.line, p.lo, p.hi, min(half, (p.hi - p.lo) / 2.0), p.low, p.high)
+                       for p in self.portals]
+        self._mids = [p.mid for p in self.portals]
         self.set_goal(*town.start)
 
     # ------------------------------------------------------------ building
@@ -249,14 +251,25 @@ class Navigator:
         exit_ = self._exits[region] if region >= 0 else UNREACHABLE
         if exit_ < 0:
             return self.goal[0], self.goal[1], True
-        vertical, line, lo, hi, margin, low = self._steer[exit_]
-        half = c / 2.0 if region == low else -c / 2.0  # toward the far side
-        along = y if vertical else x
-        if lo < along < hi:  # level with the portal: straight across
-            across = line + half
-        else:  # to half a cell before the portal's nearer end
-            across = line - half
-            along = lo + margin if along <= lo else hi - margin
+        vertical, line, lo, hi, margin, low, high = self._steer[exit_]
+        if region == low:
+            side, beyond_region = 1.0, high
+        else:
+            side, beyond_region = -1.0, low
+        after = self._exits[beyond_region]  # the way on, past the portal
+        ax, ay = self._mids[after] if after >= 0 else self.goal
+        if vertical:
+            p_across, p_along, a_across, a_along = x, y, ax, ay
+        else:
+            p_across, p_along, a_across, a_along = y, x, ay, ax
+        depth = (line - p_across) * side  # how far the zombie is before the portal's line
+        beyond = (a_across - line) * side  # and the way on past it
+        along = p_along + (a_along - p_along) * depth / (depth + beyond) if depth > 0.0 and beyond > 0.0 else a_along
+        along = lo + margin if along < lo + margin else hi - margin if along > hi - margin else along
+        half = c / 2.0
+        # where a straight walk to half a cell past the portal (at ``along``) crosses the portal's line
+        crossing = p_along + (along - p_along) * depth / (depth + half) if depth > 0.0 else p_along
+        across = line + side * half if lo < crossing < hi else line - side * half  # else first to before it
         return (across, along, False) if vertical else (along, across, False)
 
     def path_length(self, x: float, y: float) -> float:
