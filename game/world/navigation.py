@@ -109,6 +109,7 @@ class Navigator:
         self.settings = s = settings if settings is not None else NavSettings()
         self.origin = -town.half_size_m
         self.n = max(1, math.floor(2.0 * town.half_size_m / s.cell_m))
+        self._inv, self._half = 1.0 / s.cell_m, s.cell_m / 2.0
         free = self._free_cells()
         self.free = free
         self.regions: list[Rect] = []  # in metres
@@ -129,6 +130,7 @@ class Navigator:
         self._steer = [(p.vertical, p.line, p.lo, p.hi, min(half, (p.hi - p.lo) / 2.0), p.low, p.high)
                        for p in self.portals]
         self._mids = [p.mid for p in self.portals]
+        self._links = [(self._neighbours(k, p.low), self._neighbours(k, p.high)) for k, p in enumerate(self.portals)]
         self.set_goal(*town.start)
 
     # ------------------------------------------------------------ building
@@ -218,12 +220,18 @@ class Navigator:
             frontier = grown
         return out
 
+    def _neighbours(self, portal: int, region: int) -> list[tuple[int, float]]:
+        """The other portals of ``region`` with their midpoints' distances from ``portal``'s."""
+        mx, my = self._mids[portal]
+        return [(q, math.hypot(self._mids[q][0] - mx, self._mids[q][1] - my))
+                for q in self.region_portals[region] if q != portal]
+
     # ------------------------------------------------------------ queries
 
     def region_at(self, x: float, y: float) -> int:
         """The region of the cell under (x, y) (of a nearest free cell if it is blocked); -1 in a town with
         no free cell."""
-        n, inv = self.n, 1.0 / self.settings.cell_m
+        n, inv = self.n, self._inv
         i, j = int((x - self.origin) * inv), int((y - self.origin) * inv)
         i = 0 if i < 0 else n - 1 if i >= n else i
         j = 0 if j < 0 else n - 1 if j >= n else j
@@ -243,8 +251,8 @@ class Navigator:
     def waypoint(self, x: float, y: float) -> tuple[float, float, bool]:
         """Where a zombie at (x, y) walks straight to next: ``(x, y, final)``; ``final`` when it is the goal
         itself (the zombie is in the goal's region, or has no way there)."""
-        n, c = self.n, self.settings.cell_m
-        i, j = int((x - self.origin) / c), int((y - self.origin) / c)
+        n, inv, origin = self.n, self._inv, self.origin
+        i, j = int((x - origin) * inv), int((y - origin) * inv)  # truncation: only negatives, clamped to 0, differ
         i = 0 if i < 0 else n - 1 if i >= n else i
         j = 0 if j < 0 else n - 1 if j >= n else j
         region = self.cell_region[j * n + i]
@@ -266,7 +274,7 @@ class Navigator:
         beyond = (a_across - line) * side  # and the way on past it
         along = p_along + (a_along - p_along) * depth / (depth + beyond) if depth > 0.0 and beyond > 0.0 else a_along
         along = lo + margin if along < lo + margin else hi - margin if along > hi - margin else along
-        half = c / 2.0
+        half = self._half
         # where a straight walk to half a cell past the portal (at ``along``) crosses the portal's line
         crossing = p_along + (along - p_along) * depth / (depth + half) if depth > 0.0 else p_along
         across = line + side * half if lo < crossing < hi else line - side * half  # else first to before it
@@ -299,8 +307,8 @@ class Navigator:
         is the region the way goes on through, and a region may leave only by
         a portal whose way goes on beyond it (never back through itself).
         """
-        portals, region_portals = self.portals, self.region_portals
-        mids = [p.mid for p in portals]
+        portals, region_portals, links = self.portals, self.region_portals, self._links
+        mids = self._mids
         length = [math.inf] * len(portals)
         via = [-1] * len(portals)
         entry = [-1] * len(portals)
@@ -315,23 +323,20 @@ class Navigator:
             entry[p] = p
             heap.append((length[p], p))
         heapq.heapify(heap)
+        pop, push = heapq.heappop, heapq.heappush
         while heap:
-            d, p = heapq.heappop(heap)
+            d, p = pop(heap)
             if d > length[p]:
                 continue
             portal = portals[p]
             region = portal.high if via[p] == portal.low else portal.low  # the side the way comes from
-            px, py = mids[p]
-            for q in region_portals[region]:
-                if q == p:
-                    continue
-                qx, qy = mids[q]
-                nd = d + math.hypot(qx - px, qy - py)
+            for q, w in links[p][region == portal.high]:
+                nd = d + w
                 if nd < length[q]:
                     length[q] = nd
                     via[q] = region
                     entry[q] = entry[p]
-                    heapq.heappush(heap, (nd, q))
+                    push(heap, (nd, q))
         for region, (cx, cy) in enumerate(self.centres):
             best = math.inf
             for q in region_portals[region]:

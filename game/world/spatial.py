@@ -32,6 +32,7 @@ class ObstacleGrid:
         self.cell_m = cell_m
         self.reach_m = reach_m
         self.n = max(1, math.ceil(2.0 * half_size_m / cell_m))
+        self._inv = 1.0 / cell_m
         members: list[list[int]] = [[] for _ in range(self.n * self.n)]
         for k, o in enumerate(self.obstacles):
             i0, i1 = self.column(o.x0 - reach_m), self.column(o.x1 + reach_m)
@@ -49,7 +50,11 @@ class ObstacleGrid:
 
     def near(self, x: float, y: float) -> tuple[Obstacle, ...]:
         """The obstacles within ``reach_m`` of the point's cell (a superset of those within ``reach_m`` of it)."""
-        return self._cells[self.column(y) * self.n + self.column(x)]
+        n, inv, origin = self.n, self._inv, self.origin  # column(), inlined: this runs per body and step
+        i, j = int((x - origin) * inv), int((y - origin) * inv)  # truncation: only negatives, clamped to 0, differ
+        i = 0 if i < 0 else n - 1 if i >= n else i
+        j = 0 if j < 0 else n - 1 if j >= n else j
+        return self._cells[j * n + i]
 
     def in_box(self, x0: float, y0: float, x1: float, y1: float) -> list[Obstacle]:
         """The obstacles of the cells the box overlaps, each once, in the town's order.
