@@ -30,12 +30,16 @@ through it. It is rebuilt only when the player walks into another region
 back.
 
 A zombie's waypoint (:meth:`Navigator.waypoint`, O(1)): in the player's
-region, the player himself; else across its region's exit: straight across
-the portal when the zombie is level with it, else to a point half a cell
-before the portal's nearer end. Every such straight walk stays inside the
-region and the next one, so a zombie that follows its waypoints never
-touches an obstacle; pushes from the crowd (the arena's separation) and
-:func:`game.world.collision.push_out` do the rest.
+region, the player himself; else half a cell past its region's exit, at
+the point where its line to the way beyond (the next region's exit, or the
+player) crosses the exit (kept a margin in from the portal's ends). When
+the straight walk there would cross the portal's line outside the portal,
+it first walks to the same point half a cell before the portal. Every such
+straight walk stays inside the region and the next one, so a zombie that
+follows its waypoints never touches an obstacle; pushes from the crowd
+(the arena's separation) and :func:`game.world.collision.push_out` do the
+rest. The ways bend a little at the regions' edges: round a single wall
+some 16% longer than the shortest.
 """
 
 from __future__ import annotations

@@ -72,7 +72,8 @@ class ObstacleGrid:
 
     def along(self, ax: float, ay: float, bx: float, by: float) -> list[Obstacle]:
         """The obstacles of the cells the segment ab crosses, each once, in the order the segment meets
-        the cells (from a): a line-of-sight test can stop at the first that blocks.
+        the cells (from a): a line-of-sight test can stop at the first that blocks. A segment that
+        leaves the area gets the obstacles of every cell its box overlaps, in the town's order.
 
         Walks the cells with Amanatides and Woo's traversal ("A fast voxel
         traversal algorithm for ray tracing", Eurographics 1987): at each step

@@ -525,7 +525,7 @@ class _Builder:
             rect = (c0, at, c0 + width, at + length)
         self._place(Obstacle(kind, *rect, height), street)
 
-    def _place(self, obstacle: Obstacle, home: Street) -> bool:
+    def _place(self, obstacle: Obstacle, home: Street) -> None:
         """Add a street object if it fits: inside its street or square, clear of the start, the spawn
         points, the alley mouths, other open ground and other obstacles, and leaving the passage."""
         s = self.s
@@ -542,7 +542,6 @@ class _Builder:
                 and (home.kind == "square" or self._leaves_passage(home, rect)))
         if fits:
             self.obstacles.append(obstacle)
-        return fits
 
     def _leaves_passage(self, street: Street, rect: Rect) -> bool:
         """Whether, with ``rect`` added, the street keeps ``min_passage_m`` clear across wherever
