@@ -43,6 +43,7 @@ class Zombie:
     spin_rate: float = 0.0
     heading: float = 0.0  # the way it faces, radians from +x
     age: float = 0.0  # seconds in the current state
+    waypoint: tuple[float, float, bool] | None = None  # where it walks: (x, y, the player himself?)
 
 
 @dataclass

@@ -66,6 +66,20 @@ def push_out(town: Town, x: float, y: float, radius: float) -> tuple[float, floa
     return (-h if x < -h else h if x > h else x), (-h if y < -h else h if y > h else y)
 
 
+def inside(town: Town, x: float, y: float, radius: float, tolerance: float) -> bool:
+    """Whether a circle of ``radius`` at (x, y) overlaps an obstacle by more than ``tolerance`` (m)."""
+    grid = town.grid
+    nearby = grid.near(x, y) if radius <= grid.reach_m else grid.in_box(x - radius, y - radius,
+                                                                        x + radius, y + radius)
+    limit = (radius - tolerance) ** 2
+    for o in nearby:
+        cx = o.x0 if x < o.x0 else o.x1 if x > o.x1 else x
+        cy = o.y0 if y < o.y0 else o.y1 if y > o.y1 else y
+        if (x - cx) ** 2 + (y - cy) ** 2 < limit:
+            return True
+    return False
+
+
 def sweep_sphere(town: Town, p0: Vec3, p1: Vec3, radius: float) -> tuple[float, Obstacle] | None:
     """The first obstacle a sphere of ``radius`` meets moving from ``p0`` to ``p1``: ``(t, obstacle)``,
     the sphere's centre touching it at ``p0 + t (p1 - p0)``, t in [0, 1); None if it meets none.
