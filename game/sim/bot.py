@@ -11,8 +11,13 @@ motion to the sensor simulator. The game then learns what the arm did only
 from the board's decoded samples, as with a person.
 
 How it plays:
-  Threat. Each walking zombie's threat is its time to contact: the distance
-  left to its reach, over its speed. The most threatening one is the target.
+  Sight. It sees only the zombies in its line of sight (from its eyes to a
+  zombie's chest, over low walls and cars, never through a building or a
+  wall: :func:`~game.world.sight.sees`), each looked at again every
+  ``LOOK_S`` (a glance, not a frame-by-frame scan), and throws only at those.
+  Threat. Each seen zombie's threat is its time to contact: the length of
+  its way round the obstacles left to its reach, over its speed. The most
+  threatening one is the target.
   Facing. Outside +-45 deg of the body's facing, the bot first turns toward
   the target (the keyboard's turn keys). It never turns while the arm is up,
   which would swing the aim.
@@ -22,9 +27,10 @@ How it plays:
   players lead a walking zombie to where it will be at the launch. Each
   angle gets Gaussian noise. With reloads, one raise throws at the next
   targets too.
-  Walking. When a zombie would reach it within ``FLEE_S`` (2.5 s), it walks away from
-  the near zombies and back toward the middle of the arena until it is a
-  third further clear. It does not walk during a throw (which would swing the aim
+  Walking. When a zombie (seen or not: it hears them) would reach it within
+  ``FLEE_S`` (2.5 s), it walks away from the near zombies and back toward the
+  start square near the town's edge until it is a third further clear, turning
+  aside (up to 135 deg) where a wall blocks the way. It does not walk during a throw (which would swing the aim
   off), unless a zombie is about to strike.
   Fatigue. Per minute played, its movements slow by ``fatigue_per_min`` and
   its aim noise grows by the same fraction.
@@ -40,12 +46,19 @@ import numpy as np
 
 from ..world.arena import Arena
 from ..world.arena_model import Controls, Player, Zombie
+from ..world.collision import sweep_sphere
+from ..world.sight import sees
+from ..world.town import Town
 from .motion_model import SPEED_RANGE, PlayerProfile, Script, TrueLaunch
 
 CHEST_M = 1.2  # the height the bot aims at on a zombie (1.8 m tall)
 FACING_DEG = 45.0  # a target further off the body's facing is turned toward first
 NEAR_M = 6.0  # zombies within this push the fleeing bot away
-CENTRE_PULL = 0.6  # beyond this fraction of the arena's radius the fleeing bot heads inward too
+CENTRE_PULL = 0.6  # beyond this fraction of the town's half size the fleeing bot heads to the start too
+LOOK_S = 0.25  # how often the bot looks again whether a zombie is in sight
+STEP_AHEAD_M = 1.5  # the fleeing bot checks this much of its way ahead for walls
+DODGE_DEG = (0.0, 45.0, -45.0, 90.0, -90.0, 135.0, -135.0)  # the ways it tries, off its flight, in turn
+WAIST_M = 0.9  # the height at which its way ahead is tested against obstacles
 THROW_S = 2.7  # the typical time from the decision to a launch at speed 1 (reach, load, spin)
 RELOAD_S = 1.3  # and from one launch to the next of the same raise
 IDLE_S = (1.0, 2.5)  # fidgeting between waves, seconds
@@ -105,6 +118,7 @@ class Bot:
         self._step_seen = ""  # the calibration step the bot last reacted to
         self._lowered_at: float | None = None  # when the arm is back down after calibrating
         self.fleeing = False
+        self._seen: dict[int, tuple[float, bool]] = {}  # zombie id: (when looked at, in sight)
 
     @property
     def launches(self) -> list[TrueLaunch]:
@@ -144,22 +158,23 @@ class Bot:
         player = arena.player
         walking = arena.alive_zombies
         busy = t < self.script.now  # the arm is on what was planned
-        soonest = min((self._time_to_contact(z, player, arena) for z in walking), default=math.inf)
+        soonest = min((self._time_to_contact(z, arena) for z in walking), default=math.inf)
         # Walk away from a close zombie until well clear (hysteresis); mid-throw only when it is
         # about to strike, since walking swings a throw's aim off its target.
         self.fleeing = soonest < (FLEE_UNTIL * FLEE_S if self.fleeing else FLEE_S)
         if self.fleeing and (not busy or soonest < STRIKE_S):
-            return Action(controls=self._flee(player, walking, arena.settings.arena_radius_m))
+            return Action(controls=self._flee(player, walking, arena.town, arena.settings.player_radius_m))
         if busy:
             return Action()
         minutes = (t - (self.play_started or t)) / 60.0
         self._tire(minutes)
         self.script.forget_before(t - FORGET_S)
-        if not walking:
+        visible = self._in_sight(t, walking, arena)
+        if not visible:
             self.script.wait_until(start)
             self.script.idle(float(self.rng.uniform(*IDLE_S)))
             return Action()
-        threats = sorted(walking, key=lambda z: self._time_to_contact(z, player, arena))
+        threats = sorted(visible, key=lambda z: self._time_to_contact(z, arena))
         ahead = (start - t) + THROW_S / self.script.profile.speed
         aims = []
         for k, zombie in enumerate(threats[:1 + self.skill.reloads]):
@@ -182,9 +197,24 @@ class Bot:
         speed = self.profile.speed / (1.0 + self.skill.fatigue_per_min * minutes)
         self.script.profile = replace(self.profile, speed=_speed(speed))
 
+    def _in_sight(self, t: float, walking: list[Zombie], arena: Arena) -> list[Zombie]:
+        """The walking zombies the bot sees, each looked at again every ``LOOK_S``."""
+        p, seen, out = arena.player, self._seen, []
+        for z in walking:
+            looked = seen.get(z.id)
+            if looked is None or t - looked[0] >= LOOK_S:
+                looked = seen[z.id] = (t, sees(arena.town, (p.x, p.y), (z.x, z.y)))
+            if looked[1]:
+                out.append(z)
+        if len(seen) > 4 * len(walking) + 16:  # forget the zombies gone
+            ids = {z.id for z in walking}
+            self._seen = {k: v for k, v in seen.items() if k in ids}
+        return out
+
     @staticmethod
-    def _time_to_contact(zombie: Zombie, player: Player, arena: Arena) -> float:
-        gap = math.hypot(zombie.x - player.x, zombie.y - player.y) - arena.settings.contact_distance_m
+    def _time_to_contact(zombie: Zombie, arena: Arena) -> float:
+        """Seconds until ``zombie`` reaches the player along its way round the obstacles."""
+        gap = arena.navigator.path_length(zombie.x, zombie.y) - arena.settings.contact_distance_m
         return max(0.0, gap) / max(zombie.speed, 1e-6)
 
     def _aim(self, zombie: Zombie, arena: Arena, shoulder: Sequence[float], ahead_s: float
@@ -206,23 +236,33 @@ class Bot:
         return azimuth, elevation
 
     @staticmethod
-    def _flee(player: Player, walking: list[Zombie], arena_radius_m: float) -> Controls:
-        """Walk away from the near zombies, and inward near the arena's edge."""
+    def _flee(player: Player, walking: list[Zombie], town: Town, body_radius_m: float) -> Controls:
+        """Walk away from the near zombies, toward the start square near the town's edge, and aside
+        where a wall blocks the way."""
         wx = wy = 0.0
         for z in walking:
             dx, dy = player.x - z.x, player.y - z.y
             d2 = dx * dx + dy * dy
             if d2 < NEAR_M * NEAR_M:
                 wx, wy = wx + dx / max(d2, 0.01), wy + dy / max(d2, 0.01)
-        r = math.hypot(player.x, player.y)
-        edge = arena_radius_m * CENTRE_PULL
-        if r > edge:
+        sx, sy = player.x - town.start[0], player.y - town.start[1]
+        if max(abs(player.x), abs(player.y)) > town.half_size_m * CENTRE_PULL:
+            r = math.hypot(sx, sy) or 1.0
             push = math.hypot(wx, wy) or 1.0
-            wx, wy = wx - player.x / r * push, wy - player.y / r * push
+            wx, wy = wx - sx / r * push, wy - sy / r * push
         norm = math.hypot(wx, wy)
         if norm < 1e-9:
             return Controls()
-        wx, wy = wx / norm, wy / norm
+        heading = math.atan2(wy, wx)
+        for dodge in DODGE_DEG:  # the first way not blocked within STEP_AHEAD_M
+            a = heading + math.radians(dodge)
+            ux, uy = math.cos(a), math.sin(a)
+            ahead = (player.x + ux * STEP_AHEAD_M, player.y + uy * STEP_AHEAD_M, WAIST_M)
+            if sweep_sphere(town, (player.x, player.y, WAIST_M), ahead, body_radius_m) is None:
+                wx, wy = ux, uy
+                break
+        else:
+            wx, wy = wx / norm, wy / norm  # hemmed in: press on and slide
         c, s = math.cos(player.yaw), math.sin(player.yaw)
         return Controls(forward=-wx * s + wy * c, strafe=wx * c + wy * s)
 

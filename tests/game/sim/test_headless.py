@@ -31,6 +31,8 @@ def test_the_bot_kills_zombies_and_every_launch_is_seen_and_none_is_false(normal
         assert r["aim_error_deg_median"] < 3.0
         # a clean link: every frame the board sent was decoded
         assert r["frames_decoded"] == r["frames_sent"] and r["crc_errors"] == r["dropped"] == 0
+        # in the town: walls push bodies out, so no step has one inside an obstacle
+        assert r["obstacle_violations"] == 0 and r["wall_hits"] >= 0
 
 
 def test_the_same_seed_gives_the_same_match_and_another_seed_another(normal_matches):
