@@ -1,7 +1,8 @@
 """The actors: the zombies (posed all at once), the player's avatar, the balls in flight and at the hand.
 
-Each is planned as (paint function, payload) records, sorted far to near
-(painter's algorithm) and painted after the ground.
+Each is planned as a (depth, paint function, payload, probe points) record;
+the renderer sorts them far to near with the town's boxes (painter's
+algorithm) and paints them after the ground.
 """
 
 from __future__ import annotations
@@ -144,11 +145,11 @@ def _zombie_colour_table() -> list:
 _ZOMBIE_COLOURS = _zombie_colour_table()
 
 
-def _paint_blits(surface: pygame.Surface, blits: list) -> None:
+def paint_blits(surface: pygame.Surface, blits: list) -> None:
     surface.blits(blits, doreturn=False)
 
 
-def _paint_calls(surface: pygame.Surface, calls: list) -> None:
+def paint_calls(surface: pygame.Surface, calls: list) -> None:
     """Paint a list of (function, arguments) with the surface as first argument."""
     for fn, args in calls:
         fn(surface, *args)
@@ -255,12 +256,21 @@ class Actors:
                 np.concatenate([np.full(len(g.za), 0.75), [0.5 + 0.3 * b.charge for b in g.balls], np.full(n_av, 0.9)]),
                 np.concatenate([g.za[:, 2], [b.position[2] for b in g.balls], np.zeros(n_av)]))
 
+    @staticmethod
+    def body_points(g: ActorPoints) -> np.ndarray:
+        """The batch indices of the player's body, arm and held ball: what must never be hidden."""
+        idx = [np.arange(sl.start, sl.stop) for sl in g.s_parts] + [np.arange(g.s_held.start, g.s_held.stop)]
+        return np.concatenate(idx) if idx else np.zeros(0, dtype=int)
+
     def plan(self, frame: Frame, g: ActorPoints, settings) -> list:
-        """Zombies, balls, the held ball and the avatar as (paint, payload), far to near."""
-        items: list[tuple[float, object, object]] = []
+        """Zombies, balls, the held ball and the avatar as (depth, paint, payload, probes), in no order;
+        ``probes`` are the batch indices of the points that say what covers it (:mod:`.occlusion`)."""
+        items: list[tuple[float, object, object, list]] = []
         if len(g.za):
-            zdepth, records = self._zombie_records(frame, g.s_zj, len(g.za), g.za[:, 7] > 0)
-            items += [(d, _paint_zombie, rec) for d, rec in zip(zdepth.tolist(), records)]
+            zdepth, records, ok = self._zombie_records(frame, g.s_zj, len(g.za), g.za[:, 7] > 0)
+            first = g.s_zj.start + ok * Z_JOINTS
+            probes = np.stack([first + Z_HEAD, first + Z_HIP, first + Z_FOOTL, first + Z_FOOTR], 1).tolist()
+            items += [(d, _paint_zombie, rec, pr) for d, rec, pr in zip(zdepth.tolist(), records, probes)]
         if g.balls:
             r0, r1 = setting(settings, ("ball_radius_m",), 0.22), setting(settings, ("ball_radius_per_charge_m",), 0.1)
             radii = [r0 + r1 * float(b.charge) for b in g.balls]
@@ -269,20 +279,22 @@ class Actors:
             for i, blits in enumerate(trails):
                 j = g.s_balls.start + i
                 if frame.visible[j]:
-                    items.append((float(frame.depth[j]), _paint_blits, blits + self._plan_ball(frame, j, radii[i],
-                                                                                                 fades[i])))
+                    items.append((float(frame.depth[j]), paint_blits,
+                                  blits + self._plan_ball(frame, j, radii[i], fades[i]), [j]))
         held, j = g.held, g.s_held.start
         if held is not None and held.visible and (held.state in ("loading", "spinning") or held.charge > 0) \
                 and frame.visible[j]:
-            items.append((float(frame.depth[j]), _paint_calls, self._plan_held(frame, held, j)))
+            items.append((float(frame.depth[j]), paint_calls, self._plan_held(frame, held, j), [j]))
         if g.parts and frame.visible[g.s_parts[2].start + 1]:  # the chest
-            items.append((float(frame.depth[g.s_parts[2].start + 1]), _paint_calls,
-                          self._plan_avatar(frame, g.parts, g.s_parts)))
-        order = depth_order(np.array([it[0] for it in items])).tolist() if items else []
-        return [items[k][1:] for k in order]
+            chest = g.s_parts[2].start + 1
+            items.append((float(frame.depth[chest]), paint_calls, self._plan_avatar(frame, g.parts, g.s_parts),
+                          [chest, g.s_parts[-1].start]))  # the chest and the head
+        return items
 
-    def _zombie_records(self, frame: Frame, sl: slice, n: int, flying: np.ndarray) -> tuple[np.ndarray, list]:
-        """The zombies worth drawing (in front, not too close, on screen): their depths and paint records.
+    def _zombie_records(self, frame: Frame, sl: slice, n: int, flying: np.ndarray
+                        ) -> tuple[np.ndarray, list, np.ndarray]:
+        """The zombies worth drawing (in front, not too close, on screen): their depths, paint records and
+        indices (among the ``n``).
 
         A record is (leg polyline, arm polyline, [hip, neck, head, eyes] pixels,
         limb width, torso width, head radius, colours, eyes shown).
@@ -295,7 +307,7 @@ class Actors:
                             & (hi[:, 0] > -20) & (lo[:, 0] < cam.width + 20)
                             & (hi[:, 1] > -20) & (lo[:, 1] < cam.height + 20))
         if not len(ok):
-            return np.zeros(0), []
+            return np.zeros(0), [], ok
         d, flying = d[ok], flying[ok]
         hip = d[:, Z_HIP]
         ppm = cam.f / hip
@@ -308,7 +320,7 @@ class Actors:
                            np.maximum(2, ppm * 0.13).astype(int).tolist(),
                            [_ZOMBIE_COLOURS[i] for i in fog_level.tolist()],
                            (d[:, Z_EYEL] < d[:, Z_HEAD]).tolist()))  # eyes nearer than the head: facing us
-        return hip, records
+        return hip, records, ok
 
     def _plan_trails(self, frame: Frame, sl: slice, lengths: list, radii: list, fades: list) -> list:
         """Every ball's trail as glow blits, all at once: every other point, tapering, oldest faintest."""

@@ -1,10 +1,12 @@
 """The renderer the app draws with: the parts of :mod:`game.ui.render`, composed.
 
 A world frame (:meth:`Renderer.draw_world`) gathers every point of the world
-(:mod:`.world`), the actors (:mod:`.actors`) and the effects (:mod:`.effects`)
-into one batch, projects it once (:mod:`.camera`), plans every paint call, then
-paints: ground, shadows, actors far to near, light on top. The 2D pictures (the
-HUD, plots, screens and the Board setup's) come from the parts it inherits.
+(:mod:`.world`), the town's boxes (:mod:`.town`), the actors (:mod:`.actors`)
+and the effects (:mod:`.effects`) into one batch, projects it once
+(:mod:`.camera`), plans every paint call, then paints: ground, shadows, then
+boxes, actors and light far to near, each thing before the first box that
+covers it (:meth:`Renderer._order`). The 2D pictures (the HUD, the minimap,
+plots, screens and the Board setup's) come from the parts it inherits.
 """
 
 from __future__ import annotations
@@ -15,14 +17,16 @@ from typing import Iterable
 import numpy as np
 import pygame
 
-from .actors import Actors
+from .actors import Actors, paint_blits, paint_calls
 from .board import BoardPictures
-from .camera import Batch, Camera, CameraRig
+from .camera import Batch, Camera, CameraRig, Frame, depth_order
 from .effects import Effects, Vignette
 from .hud import Hud
+from .minimap import Minimap
 from .plots import Plots
 from .screens import Screens
 from .sprites import SpriteCache, TextCache
+from .town import TownPlan, TownView
 from .world import Scenery, setting
 
 
@@ -36,11 +40,9 @@ class _Plan:
     """
 
     grid: list = field(default_factory=list)  # [x1, y1, x2, y2] per line
-    ring: list = field(default_factory=list)  # (colour, polyline)
+    lines: list = field(default_factory=list)  # the town's lines on the ground: (x1, y1, x2, y2, colour)
     shadows: list = field(default_factory=list)  # MULT blit tuples
     items: list = field(default_factory=list)  # (paint function, payload), far to near
-    circles: list = field(default_factory=list)  # flash rings: (colour, centre, radius, width)
-    glows: list = field(default_factory=list)  # ADD blit tuples painted last (particles, flashes)
     hurt: float = 0.0  # 0..1, the red vignette
 
 
@@ -60,6 +62,8 @@ class Renderer(Hud, Plots, Screens, BoardPictures):
         self.text = TextCache()
         self.globes: dict[tuple, tuple] = {}
         self.scenery = Scenery(self.camera, self.sprites)
+        self.town = TownView(self.camera, self.sprites)
+        self.minimap = Minimap()
         self.actors = Actors(self.camera, self.sprites, rng)
         self.effects = Effects(self.camera, self.sprites, rng, max_particles)
         self.vignette = Vignette()
@@ -67,6 +71,10 @@ class Renderer(Hud, Plots, Screens, BoardPictures):
     def react(self, events: Iterable) -> None:
         """Spawn effects for arena events (:meth:`Effects.react`)."""
         self.effects.react(events)
+
+    def draw_minimap(self, surface: pygame.Surface, arena) -> None:
+        """The town from above in the HUD's corner, with the zombies and the player (:mod:`.minimap`)."""
+        self.minimap.draw(surface, arena)
 
     def update_effects(self, dt: float, arena=None) -> None:
         """Advance the effects by ``dt`` (:meth:`Effects.update`)."""
@@ -84,7 +92,7 @@ class Renderer(Hud, Plots, Screens, BoardPictures):
         self.effects.update(effects_dt, arena)
         self.actors.update_stride(avatar, effects_dt)
         self.scenery.prepare(surface)
-        self._paint(surface, self._plan(arena, avatar))
+        self._paint(surface, self._plan(arena, avatar, effects_dt))
 
     def draw_backdrop(self, surface: pygame.Surface) -> None:
         """The sky and the ground alone, no arena and no avatar: behind a screen full of panels."""
@@ -97,29 +105,71 @@ class Renderer(Hud, Plots, Screens, BoardPictures):
         if (w, h) != (self.camera.width, self.camera.height):
             self.camera.set_viewport(w, h)
 
-    def _plan(self, arena, avatar) -> _Plan:
+    def _plan(self, arena, avatar, dt: float) -> _Plan:
         """All of the frame's numpy work: gather every point, project once, build the paint lists."""
         settings = getattr(arena, "settings", None)
+        town = getattr(arena, "town", None)
+        model = self.town.model_of(town)
         batch = Batch()
-        ground = self.scenery.gather(batch, settings)
+        ground = self.scenery.gather(batch, model.ground if model is not None else None)
+        boxes = self.town.gather(batch, town)
         actors = self.actors.gather(batch, arena, avatar, settings)
         particles, flashes = self.effects.gather(batch)
-        frame = self.camera.frame(batch.array())  # the ONE projection
+        points = batch.array()
+        frame = self.camera.frame(points)  # the ONE projection
         hurt = float(getattr(arena.player, "hurt", 0.0)) / setting(settings, ("hurt_flash_s",), 0.3)
         plan = _Plan(hurt=min(1.0, hurt))
-        plan.grid, plan.ring = self.scenery.plan_ground(frame, ground)
+        plan.grid, plan.lines = self.scenery.plan_ground(frame, ground)
         plan.shadows = self.scenery.plan_shadows(frame, *self.actors.shadow_spots(actors))
-        plan.items = self.actors.plan(frame, actors, settings)
-        plan.circles, plan.glows = self.effects.plan(frame, particles, flashes)
+        town_plan = self.town.plan(frame, boxes, points[self.actors.body_points(actors)], dt)
+        plan.items = self._order(town_plan, self.actors.plan(frame, actors, settings),
+                                 self.effects.plan(frame, particles, flashes), points, frame)
         return plan
 
+    def _order(self, boxes: TownPlan, things: list, light: tuple, points: np.ndarray, frame: Frame) -> list:
+        """Boxes, actors and light in one paint order (painter's algorithm, :mod:`.town`'s docstring).
+
+        The boxes come far to near. Each actor goes just before the first box
+        that covers one of its probe points, or after every box, and the
+        actors keep their own order far to near (an actor never goes after a
+        nearer one). Each glow and flash ring of the effects (additive: their
+        order does not matter) goes just before the first box that covers its point.
+        """
+        n = len(boxes.items)
+        eye = self.camera.eye
+
+        def slots_of(idx: np.ndarray) -> np.ndarray:
+            return self.town.cover_slots(boxes, eye, points[idx], frame.xy[idx], frame.depth[idx])
+
+        buckets: list[list] = [[] for _ in range(n + 1)]
+        if things:
+            lengths = [len(t[3]) for t in things]
+            probes = np.concatenate([np.asarray(t[3], dtype=int) for t in things])
+            first = np.full(len(things), n)
+            np.minimum.at(first, np.repeat(np.arange(len(things)), lengths),
+                          slots_of(probes))
+            far_to_near = depth_order(np.array([t[0] for t in things]))
+            slots = np.minimum.accumulate(first[far_to_near][::-1])[::-1]
+            for k, slot in zip(far_to_near.tolist(), slots.tolist()):
+                buckets[slot].append(things[k][1:3])
+        circles, glows, at = light
+        if len(at):
+            slots = slots_of(at)
+            rings = len(circles)
+            for slot in np.unique(slots).tolist():
+                mine = (slots == slot).tolist()
+                buckets[slot] += [(paint_calls, [c for c, keep in zip(circles, mine) if keep]),
+                                  (paint_blits, [g for g, keep in zip(glows, mine[rings:]) if keep])]
+        items = []
+        for slot, box in enumerate(boxes.items):
+            items += buckets[slot]
+            items.append(box)
+        return items + buckets[n]
+
     def _paint(self, surface: pygame.Surface, plan: _Plan) -> None:
-        """Paint a planned frame: ground, shadows, things far to near, light on top."""
-        self.scenery.paint(surface, plan.grid, plan.ring, plan.shadows)
+        """Paint a planned frame: ground, shadows, then boxes, actors and light far to near."""
+        self.scenery.paint(surface, plan.grid, plan.lines, plan.shadows)
         for paint, payload in plan.items:
             paint(surface, payload)
-        for colour, centre, radius, width in plan.circles:
-            pygame.draw.circle(surface, colour, centre, radius, width)
-        surface.blits(plan.glows, doreturn=False)
         if plan.hurt > 0:
             self.vignette.draw(surface, plan.hurt)
