@@ -29,17 +29,20 @@ def covers(eye, points, lo, hi) -> np.ndarray:
     t (0 at the eye, 1 at the point) lies inside the slab between two
     values; the segment is inside the box where the three ranges and 0..1
     overlap. A segment parallel to an axis (its step there below 1e-12 m) is
-    inside that slab throughout or never: its slab's parameters go to +-1e12 times the distance.
+    inside that slab throughout or never.
     """
     eye = np.asarray(eye, dtype=float).reshape(3)
     d = np.asarray(points, dtype=float) - eye
-    d = np.where(np.abs(d) < 1e-12, 1e-12, d)  # parallel to an axis: the slab's ends go to +-infinity
-    inv = 1.0 / d
-    t0 = (np.asarray(lo, dtype=float) - eye) * inv  # the eye at the origin
-    t1 = (np.asarray(hi, dtype=float) - eye) * inv
-    enter = np.minimum(t0, t1).max(axis=-1)
-    leave = np.maximum(t0, t1).min(axis=-1)
-    return (np.maximum(enter, 0.0) < np.minimum(leave, 1.0))
+    a, b = np.asarray(lo, dtype=float) - eye, np.asarray(hi, dtype=float) - eye  # the eye at the origin
+    flat = np.abs(d) < 1e-12
+    inv = 1.0 / np.where(flat, 1.0, d)
+    t0, t1 = a * inv, b * inv
+    near, far = np.minimum(t0, t1), np.maximum(t0, t1)
+    if flat.any():  # parallel to an axis: inside that slab throughout (-inf..inf) or never (inf..-inf)
+        out = flat & ~((a < 0.0) & (0.0 < b))
+        near = np.where(flat, np.where(out, np.inf, -np.inf), near)
+        far = np.where(flat, np.where(out, -np.inf, np.inf), far)
+    return np.maximum(near.max(axis=-1), 0.0) < np.minimum(far.min(axis=-1), 1.0)
 
 
 def occluders(eye: np.ndarray, targets: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
