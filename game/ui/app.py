@@ -714,7 +714,7 @@ class BoardSetupScreen:
     def draw(self, surface: pygame.Surface) -> None:
         game = self.game
         r = game.renderer
-        r.draw_backdrop(surface)
+        r.draw_backdrop(surface, game.arena)
         w, h = surface.get_size()
         setup = self.setup
         phase = setup.phase if setup else ACCEL

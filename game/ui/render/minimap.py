@@ -1,6 +1,6 @@
 """The minimap in the HUD's top right corner: the town from above, north up.
 
-Streets, alleys and squares in light tones, obstacles as dark shapes (a
+Streets, alleys and squares in light tones, the lots between them darker, obstacles as black shapes (a
 picture made once per town and size), then each frame the zombies as red
 dots, the balls as small blue ones and the player as an arrow pointing the
 way he faces. North is up (the town's +y), so the map stays still while the
@@ -15,7 +15,7 @@ import pygame
 
 from .palette import OUTLINE, Colour
 
-BACKGROUND = (10, 12, 30, 210)
+BACKGROUND = (30, 32, 62, 215)  # the lots: pavements, yards, empty plots
 OPEN_COLOURS: dict[str, Colour] = {"street": (62, 72, 118), "alley": (48, 52, 92), "square": (84, 66, 118)}
 OBSTACLE: Colour = (4, 4, 12)
 BORDER: Colour = (120, 150, 220)

@@ -46,6 +46,18 @@ class _Plan:
     hurt: float = 0.0  # 0..1, the red vignette
 
 
+@dataclass
+class _Backdrop:
+    """An arena's town and player without its actors (what :meth:`Renderer.draw_backdrop` draws)."""
+
+    player: object
+    town: object
+    settings: object
+    zombies: tuple = ()
+    balls: tuple = ()
+    held: None = None
+
+
 class Renderer(Hud, Plots, Screens, BoardPictures):
     """Draws the world, its effects, the HUD, plots and the app's screens.
 
@@ -94,10 +106,14 @@ class Renderer(Hud, Plots, Screens, BoardPictures):
         self.scenery.prepare(surface)
         self._paint(surface, self._plan(arena, avatar, effects_dt))
 
-    def draw_backdrop(self, surface: pygame.Surface) -> None:
-        """The sky and the ground alone, no arena and no avatar: behind a screen full of panels."""
+    def draw_backdrop(self, surface: pygame.Surface, arena=None) -> None:
+        """The sky and the ground, and the arena's town if given (none of its actors, no avatar): behind a
+        screen full of panels."""
         self._fit(surface)
-        self.scenery.backdrop(surface)
+        if getattr(arena, "town", None) is None:
+            self.scenery.backdrop(surface)
+            return
+        self.draw_world(surface, _Backdrop(arena.player, arena.town, getattr(arena, "settings", None)), None, 0.0)
 
     def _fit(self, surface: pygame.Surface) -> None:
         """Take the surface's size (the window is resizable)."""

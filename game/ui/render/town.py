@@ -449,8 +449,9 @@ class TownView:
                 continue
             foot = g.points.start + int(g.offsets[i])
             width = max(1, int(cam.f * POLE_M / frame.depth[foot]))
-            edge = m.colours[m.kind[g.keep[i]], SHADE_NAMES.index("x"), level[i], 1].tolist()
-            calls[i].append((line, (edge, frame.ixy[foot].tolist(), frame.ixy[foot + 1].tolist(), width)))
+            fill, edge = m.colours[m.kind[g.keep[i]], SHADE_NAMES.index("x"), level[i]]
+            pole = ((fill + edge) // 2).tolist()
+            calls[i].append((line, (pole, frame.ixy[foot].tolist(), frame.ixy[foot + 1].tolist(), width)))
             if frame.visible[j]:
                 x, y = frame.xy[j]
                 glow = self.sprites.glow_blit(x, y, cam.f * 0.55 / frame.depth[j], "spark", 2 if level[i] < 8 else 1)
