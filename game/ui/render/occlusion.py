@@ -42,14 +42,14 @@ def covers(eye, points, lo, hi) -> np.ndarray:
         out = flat & ~((a < 0.0) & (0.0 < b))
         near = np.where(flat, np.where(out, np.inf, -np.inf), near)
         far = np.where(flat, np.where(out, -np.inf, np.inf), far)
-    return np.maximum(near.max(axis=-1), 0.0) < np.minimum(far.min(axis=-1), 1.0)
+    return np.asarray(np.maximum(near.max(axis=-1), 0.0) < np.minimum(far.min(axis=-1), 1.0))
 
 
 def occluders(eye: np.ndarray, targets: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """(N,) bools: the boxes that stand between the camera's ``eye`` and any of the ``targets`` (the
     player's body and arm, sampled as points): those to fade so that the player is never hidden."""
     targets = np.asarray(targets, dtype=float).reshape(-1, 3)
-    return covers(eye, targets[:, None], np.reshape(lo, (1, -1, 3)), np.reshape(hi, (1, -1, 3))).any(axis=0)
+    return np.asarray(covers(eye, targets[:, None], np.reshape(lo, (1, -1, 3)), np.reshape(hi, (1, -1, 3))).any(axis=0))
 
 
 def ease(alpha: np.ndarray, faded: np.ndarray, dt: float) -> np.ndarray:

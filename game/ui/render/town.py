@@ -226,8 +226,8 @@ def colour_table() -> np.ndarray:
     table = np.zeros((len(KIND_COLOURS), len(SHADE_NAMES), FOG_LEVELS, 2, 3), dtype=int)
     for i, (fill, edge) in enumerate(KIND_COLOURS.values()):
         for j, shade in enumerate(SHADE_NAMES):
-            lit = np.minimum(255, (np.asarray(fill) * SHADES[shade]).astype(int))
-            line = (np.asarray(edge) * (0.6 if shade == "inner" else 1.0)).astype(int)
+            lit = np.minimum(255, (np.asarray(fill) * SHADES[shade]).astype(int)).tolist()
+            line = (np.asarray(edge) * (0.6 if shade == "inner" else 1.0)).astype(int).tolist()
             for level in range(FOG_LEVELS):
                 a = 0.85 * level / (FOG_LEVELS - 1)
                 table[i, j, level] = lerp(lit, HAZE, a), lerp(line, HAZE, a)
@@ -389,12 +389,12 @@ class TownView:
         if not g.fresh:
             calls, screen, nearest = self._drawn
         else:
-            calls, screen, nearest = self._drawn = self._draw(frame, g)
+            calls, screen, nearest = self._drawn = self._draw(m, frame, g)
         alpha = self.alpha[keep].tolist()
         items = [(paint_calls, c) if a >= 0.999 else (self._paint_faded, (c, a)) for c, a in zip(calls, alpha)]
         return TownPlan(items, m.lo[keep], m.hi[keep], screen, nearest)
 
-    def _draw(self, frame: Frame, g: BoxPoints) -> tuple[list[list], np.ndarray, np.ndarray]:
+    def _draw(self, m: TownModel, frame: Frame, g: BoxPoints) -> tuple[list[list], np.ndarray, np.ndarray]:
         """The kept obstacles' paint calls, their screen boxes and the depths of their nearest corners."""
         cam = self.camera
         level = np.minimum(FOG_LEVELS - 1, (fog(g.distance + 1.0) * ((FOG_LEVELS - 0.01) / 0.85)).astype(int))
@@ -405,14 +405,15 @@ class TownView:
         screen = np.column_stack([np.minimum.reduceat(xy[:, 0], g.offsets), np.minimum.reduceat(xy[:, 1], g.offsets),
                                   np.maximum.reduceat(xy[:, 0], g.offsets), np.maximum.reduceat(xy[:, 1], g.offsets)])
         screen[clipped] = (-np.inf, -np.inf, np.inf, np.inf)
-        calls = self._face_calls(frame, g, level, clipped)
-        self._lamp_calls(calls, frame, g, level, clipped)
+        calls = self._face_calls(m, frame, g, level, clipped)
+        self._lamp_calls(m, calls, frame, g, level, clipped)
         return calls, screen, nearest
 
-    def _face_calls(self, frame: Frame, g: BoxPoints, level: np.ndarray, clipped: np.ndarray) -> list[list]:
+    def _face_calls(self, m: TownModel, frame: Frame, g: BoxPoints, level: np.ndarray,
+                    clipped: np.ndarray) -> list[list]:
         """Each kept obstacle's paint calls: its faces toward the eye (a ruin's far walls first, from
         inside), filled then outlined, then the lines across them (a building's floors)."""
-        m, eye = self.model, self.camera.eye
+        eye = self.camera.eye
         keep, n = g.keep, len(g.keep)
         faces = _ranges(m.face_starts[keep], m.face_starts[keep + 1])
         rank = np.repeat(np.arange(n), m.face_starts[keep + 1] - m.face_starts[keep])
@@ -436,13 +437,13 @@ class TownView:
         for r, (fill, edge), pts in zip(rank.tolist(), colours, polygons):
             if len(pts) >= 3:
                 calls[r] += [(polygon, (fill, pts)), (outline, (pts, edge))]
-        self._line_calls(calls, block, g, faces[fast], colours, level)
+        self._line_calls(m, calls, block, g, faces[fast], level)
         return calls
 
-    def _lamp_calls(self, calls: list[list], frame: Frame, g: BoxPoints, level: np.ndarray,
+    def _lamp_calls(self, m: TownModel, calls: list[list], frame: Frame, g: BoxPoints, level: np.ndarray,
                     clipped: np.ndarray) -> None:
         """Each lamp post in view: its pole, and its light (an additive glow at the top)."""
-        cam, m = self.camera, self.model
+        cam = self.camera
         line, blit = pygame.draw.line, pygame.Surface.blit
         for i, j in zip(g.lamps.tolist(), range(g.lights.start, g.lights.stop)):
             if clipped[i]:
@@ -457,10 +458,9 @@ class TownView:
                 glow = self.sprites.glow_blit(x, y, cam.f * 0.55 / frame.depth[j], "spark", 2 if level[i] < 8 else 1)
                 calls[i].append((blit, glow))
 
-    def _line_calls(self, calls: list[list], block: np.ndarray, g: BoxPoints, faces: np.ndarray, colours: list,
+    def _line_calls(self, m: TownModel, calls: list[list], block: np.ndarray, g: BoxPoints, faces: np.ndarray,
                     level: np.ndarray) -> None:
         """The lines across the drawn faces (a building's floors), half-way from the edge colour to the fill."""
-        m = self.model
         shown = np.zeros(len(m.axis), dtype=bool)
         shown[faces] = True
         pick = np.flatnonzero(shown[m.line_face])

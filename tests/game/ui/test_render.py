@@ -22,15 +22,6 @@ from game.world.arena_model import ArenaEvent, Ball, BallState, HeldBall, Player
 IDENTITY = (1.0, 0.0, 0.0, 0.0)
 
 
-@pytest.fixture(scope="module")
-def screen():
-    pygame.display.init()
-    pygame.font.init()
-    surface = pygame.display.set_mode((1280, 720))
-    yield surface
-    pygame.display.quit()
-
-
 def raised_avatar(player: Player, elevation_deg: float = 100.0, flex_deg: float = 40.0) -> Avatar:
     """An avatar standing where the player is, the tracked arm raised forward (board frame = bone frame)."""
     avatar = Avatar(BodySettings(), Wearing(IDENTITY, IDENTITY), body_yaw=player.yaw, position=(player.x, player.y))

@@ -25,15 +25,6 @@ IDENTITY = (1.0, 0.0, 0.0, 0.0)
 AVATAR_BLUE = (70, 130, 240)  # the avatar's body (palette.AVATAR_BODY)
 
 
-@pytest.fixture(scope="module")
-def screen():
-    pygame.display.init()
-    pygame.font.init()
-    surface = pygame.display.set_mode((1280, 720))
-    yield surface
-    pygame.display.quit()
-
-
 # ------------------------------------------------------------------ what hides what, by hand
 
 
