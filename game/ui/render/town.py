@@ -204,7 +204,9 @@ def _parts(o, k: int) -> tuple[list, list]:
         body = 0.6 * o.height
         long_x = o.x1 - o.x0 >= o.y1 - o.y0
         _box(points, faces, o.x0, o.y0, o.x1, o.y1, 0.15, body)
-        ix, iy = (0.22 * (o.x1 - o.x0), 0.06 * (o.y1 - o.y0)) if long_x else (0.06 * (o.x1 - o.x0), 0.22 * (o.y1 - o.y0))
+        along, across = 0.22, 0.06  # the cabin's inset at the ends and at the sides
+        ix, iy = (along * (o.x1 - o.x0), across * (o.y1 - o.y0)) if long_x else (across * (o.x1 - o.x0),
+                                                                                 along * (o.y1 - o.y0))
         _box(points, faces, o.x0 + ix, o.y0 + iy, o.x1 - ix, o.y1 - iy, body, o.height)
     elif o.kind == "ruin":
         _ruin(points, faces, o, np.random.default_rng(k))

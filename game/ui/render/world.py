@@ -167,7 +167,8 @@ class Scenery:
             surface.blit(self._ground, (0, hz))
 
     def _draw_haze(self, surface: pygame.Surface) -> None:
-        """Fade what is drawn on the ground (the grid, the town's lines) into the haze with distance (:meth:`_build_ground`)."""
+        """Fade what is drawn on the ground (the grid, the town's lines) into the haze with distance
+        (:meth:`_build_ground`)."""
         if self._haze is not None:
             surface.blit(self._haze, (0, max(0, min(surface.get_height(), self._horizon))), special_flags=SUB)
 
@@ -189,7 +190,8 @@ class Scenery:
         lines = np.hstack([pa, pb]).astype(np.int32)
         g = n - len(self._town_colours)  # the grid's lines come first
         grid = lines[:g][keep[:g]].tolist()
-        town = [(*seg, colour) for seg, k, colour in zip(lines[g:].tolist(), keep[g:].tolist(), self._town_colours) if k]
+        town = [(*seg, colour) for seg, k, colour in zip(lines[g:].tolist(), keep[g:].tolist(), self._town_colours)
+                if k]
         return grid, town
 
     def plan_shadows(self, frame: Frame, idx: np.ndarray, width_m: np.ndarray, height_m: np.ndarray) -> list:
