@@ -152,30 +152,25 @@ class Renderer(Hud, Plots, Screens, BoardPictures):
         order does not matter) goes just before the first box that covers its point.
         """
         n = len(boxes.items)
-        eye = self.camera.eye
-
-        def slots_of(idx: np.ndarray) -> np.ndarray:
-            return self.town.cover_slots(boxes, eye, points[idx], frame.xy[idx], frame.depth[idx])
-
+        circles, glows, at = light
+        probes = [np.asarray(t[3], dtype=int) for t in things]
+        idx = np.concatenate(probes + [np.asarray(at, dtype=int)])
+        slots = self.town.cover_slots(boxes, self.camera.eye, points[idx], frame.xy[idx], frame.depth[idx])
         buckets: list[list] = [[] for _ in range(n + 1)]
         if things:
-            lengths = [len(t[3]) for t in things]
-            probes = np.concatenate([np.asarray(t[3], dtype=int) for t in things])
+            lengths = [len(p) for p in probes]
             first = np.full(len(things), n)
-            np.minimum.at(first, np.repeat(np.arange(len(things)), lengths),
-                          slots_of(probes))
+            np.minimum.at(first, np.repeat(np.arange(len(things)), lengths), slots[:sum(lengths)])
             far_to_near = depth_order(np.array([t[0] for t in things]))
-            slots = np.minimum.accumulate(first[far_to_near][::-1])[::-1]
-            for k, slot in zip(far_to_near.tolist(), slots.tolist()):
+            mine = np.minimum.accumulate(first[far_to_near][::-1])[::-1]
+            for k, slot in zip(far_to_near.tolist(), mine.tolist()):
                 buckets[slot].append(things[k][1:3])
-        circles, glows, at = light
-        if len(at):
-            slots = slots_of(at)
-            rings = len(circles)
-            for slot in np.unique(slots).tolist():
-                mine = (slots == slot).tolist()
-                buckets[slot] += [(paint_calls, [c for c, keep in zip(circles, mine) if keep]),
-                                  (paint_blits, [g for g, keep in zip(glows, mine[rings:]) if keep])]
+        lit = slots[len(idx) - len(at):]
+        rings = len(circles)
+        for slot in np.unique(lit).tolist():
+            here = (lit == slot).tolist()
+            buckets[slot] += [(paint_calls, [c for c, keep in zip(circles, here) if keep]),
+                              (paint_blits, [g for g, keep in zip(glows, here[rings:]) if keep])]
         items = []
         for slot, box in enumerate(boxes.items):
             items += buckets[slot]
