@@ -13,15 +13,8 @@ import math
 
 import pygame
 
-from .palette import OUTLINE, Colour
-
-BACKGROUND = (30, 32, 62, 215)  # the lots: pavements, yards, empty plots
-OPEN_COLOURS: dict[str, Colour] = {"street": (62, 72, 118), "alley": (48, 52, 92), "square": (84, 66, 118)}
-OBSTACLE: Colour = (4, 4, 12)
-BORDER: Colour = (120, 150, 220)
-ZOMBIE_DOT: Colour = (255, 70, 50)
-BALL_DOT: Colour = (120, 210, 255)
-PLAYER_ARROW: Colour = (255, 236, 120)
+from .palette import (MAP_BALL, MAP_BORDER, MAP_LOTS, MAP_OBSTACLE, MAP_OPEN, MAP_PLAYER, MAP_ZOMBIE, OUTLINE,
+                      Colour)
 
 
 def map_rect(size: tuple[int, int]) -> pygame.Rect:
@@ -59,9 +52,9 @@ class Minimap:
         dot = max(2, rect.width // 64)
         for z in arena.zombies:
             if z.state != "gone":
-                circle(surface, ZOMBIE_DOT, to_map(rect, h, z.x, z.y), dot)
+                circle(surface, MAP_ZOMBIE, to_map(rect, h, z.x, z.y), dot)
         for b in getattr(arena, "balls", ()):
-            circle(surface, BALL_DOT, to_map(rect, h, b.position[0], b.position[1]), max(1, dot - 1))
+            circle(surface, MAP_BALL, to_map(rect, h, b.position[0], b.position[1]), max(1, dot - 1))
         p = arena.player
         self._arrow(surface, to_map(rect, h, p.x, p.y), p.yaw, max(5, rect.width // 22))
         surface.set_clip(clip)
@@ -78,23 +71,23 @@ class Minimap:
         notch = (cx - fx * size * 0.3, cy - fy * size * 0.3)
         pts = [tip, left, notch, right]
         pygame.draw.polygon(surface, OUTLINE, pts, 3)
-        pygame.draw.polygon(surface, PLAYER_ARROW, pts)
+        pygame.draw.polygon(surface, MAP_PLAYER, pts)
 
     def _background(self, town, side: int) -> pygame.Surface:
         """The town's picture at ``side`` pixels square: open ground, obstacles, a border (kept per town)."""
         key = (id(town), side)
         if key != self._key or self._picture is None:
             picture = pygame.Surface((side, side), pygame.SRCALPHA)
-            picture.fill(BACKGROUND)
+            picture.fill(MAP_LOTS)
             rect = picture.get_rect()
             h = town.half_size_m
             for kind in ("street", "alley", "square"):  # squares over the streets that run into them
                 for s in town.streets:
                     if s.kind == kind:
-                        self._fill(picture, rect, h, s, OPEN_COLOURS[kind])
+                        self._fill(picture, rect, h, s, MAP_OPEN[kind])
             for o in town.obstacles:
-                self._fill(picture, rect, h, o, OBSTACLE)
-            pygame.draw.rect(picture, BORDER, rect, 1)
+                self._fill(picture, rect, h, o, MAP_OBSTACLE)
+            pygame.draw.rect(picture, MAP_BORDER, rect, 1)
             self._key, self._picture = key, picture
         return self._picture
 

@@ -59,7 +59,7 @@ class _Backdrop:
 
 
 class Renderer(Hud, Plots, Screens, BoardPictures):
-    """Draws the world, its effects, the HUD, plots and the app's screens.
+    """Draws the world, its effects, the HUD, the minimap, plots and the app's screens.
 
     ``react(events)`` turns arena events into effects; ``draw_world`` advances
     the effects by ``effects_dt`` and draws one frame.

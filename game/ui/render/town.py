@@ -6,7 +6,8 @@ lines) is worked out once per :class:`~game.world.town.Town` object
 view (a sphere about each against the view's four sides), puts their
 corners into the frame's one projection, and plans each as one paint item:
 its faces that look toward the camera, filled and outlined in the neon
-style, fogged with distance.
+style, fogged with distance (a lamp post: a pole and a glowing light).
+While the camera stands still the last frame's plan is used again.
 
 Paint order (painter's algorithm): the boxes far to near by the distance
 from the eye to the nearest point of their footprint; every actor before
@@ -30,31 +31,18 @@ import pygame.gfxdraw
 from .actors import paint_calls
 from .camera import Batch, Camera, Frame, clip_pixels
 from .occlusion import covers, ease, occluders
-from .palette import HAZE, Colour, lerp
+from .palette import CENTRE_LINE, HAZE, KERB, KERB_DIM, KIND_COLOURS, TOWN_EDGE, TOWN_EDGE_DIM, Colour, lerp
 from .sprites import SpriteCache
 from .world import fog
 
 POLE_M = 0.12  # a lamp post's pole, drawn
+NEAR_POLE_M = 2.5  # lamp posts nearer the eye than this are not drawn
 THIN_M = 0.16  # faces narrower than this are not drawn (a fence is its two sides)
 RUIN_TOP_POINTS = 5  # points along a ruin's broken wall top
 FLOOR_M = 3.0  # a building's floors: a lit line across its sides every this many metres
 FOG_LEVELS = 16
-# per kind: fill, edge (neon) colour
-KIND_COLOURS: dict[str, tuple[Colour, Colour]] = {
-    "building": ((30, 28, 62), (80, 210, 240)),
-    "ruin": ((46, 32, 54), (200, 90, 160)),
-    "wall": ((56, 36, 56), (220, 100, 130)),
-    "fence": ((30, 44, 56), (110, 190, 160)),
-    "car": ((54, 36, 40), (255, 150, 70)),
-    "lamp_post": ((44, 44, 66), (170, 170, 210)),
-}
 SHADES = {"top": 1.45, "x": 1.0, "y": 0.78, "inner": 0.55}  # a face's light by the way it faces
-KERB: dict[str, Colour] = {"street": (150, 235, 255), "alley": (130, 100, 210), "square": (255, 130, 210)}
-KERB_DIM: dict[str, Colour] = {"street": (60, 120, 160), "alley": (80, 60, 140), "square": (150, 70, 140)}
 KERB_M = 0.25  # a kerb: a bright line on the open ground's edge, a dim one this far in
-CENTRE_LINE: Colour = (235, 190, 90)
-TOWN_EDGE: Colour = (255, 70, 160)
-TOWN_EDGE_DIM: Colour = (170, 60, 130)
 
 
 # ------------------------------------------------------------------ the street lines (pure geometry)
@@ -444,11 +432,12 @@ class TownView:
 
     def _lamp_calls(self, m: TownModel, calls: list[list], frame: Frame, g: BoxPoints, level: np.ndarray,
                     clipped: np.ndarray) -> None:
-        """Each lamp post in view: its pole, and its light (an additive glow at the top)."""
+        """Each lamp post in view: its pole, and its light (an additive glow at the top); none within
+        ``NEAR_POLE_M`` of the eye (a pole beside the camera would cut the view in two)."""
         cam = self.camera
         line, blit = pygame.draw.line, pygame.Surface.blit
         for i, j in zip(g.lamps.tolist(), range(g.lights.start, g.lights.stop)):
-            if clipped[i]:
+            if clipped[i] or g.distance[i] < NEAR_POLE_M:
                 continue
             foot = g.points.start + int(g.offsets[i])
             width = max(1, int(cam.f * POLE_M / frame.depth[foot]))
