@@ -113,6 +113,8 @@ class Renderer(Hud, Plots, Screens, BoardPictures):
         if getattr(arena, "town", None) is None:
             self.scenery.backdrop(surface)
             return
+        self.effects.particles.clear()  # what was flying when play stopped does not hang in the air
+        self.effects.flashes.clear()
         self.draw_world(surface, _Backdrop(arena.player, arena.town, getattr(arena, "settings", None)), None, 0.0)
 
     def _fit(self, surface: pygame.Surface) -> None:

@@ -234,3 +234,16 @@ def test_a_ball_on_a_wall_bursts():
     for _ in range(90):
         r.update_effects(1 / 60)
     assert r.effects.particles.count == 0 and not r.effects.flashes
+
+
+def test_the_backdrop_behind_panels_shows_the_town_without_its_actors(screen):
+    building = Obstacle("building", -3.0, 8.0, 3.0, 12.0, 8.0)
+    zombie = Zombie(id=1, x=4.0, y=6.0, speed=1.0, health=1, phase=0.0, heading=-math.pi / 2)
+    arena, _ = town_arena([building], [zombie])
+    r = Renderer((1280, 720), seed=1)
+    r.draw_backdrop(screen)
+    bare = (pixel(r, screen, (0.0, 8.0, 5.0)), pixel(r, screen, (4.0, 6.0, 1.2)))
+    r.draw_backdrop(screen, arena)
+    town = (pixel(r, screen, (0.0, 8.0, 5.0)), pixel(r, screen, (4.0, 6.0, 1.2)))
+    assert town[0] != bare[0]  # the building's face
+    assert not (town[1][1] > town[1][0] + 30)  # no green zombie where the zombie stands
