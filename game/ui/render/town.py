@@ -131,6 +131,20 @@ def ground_lines(town) -> tuple[np.ndarray, np.ndarray, list[Colour]]:
 # ------------------------------------------------------------------ the boxes
 
 
+def hidden_boxes(screen: np.ndarray, nearest: np.ndarray, rects: np.ndarray, far: np.ndarray, owner: np.ndarray,
+                 opaque: np.ndarray) -> np.ndarray:
+    """Which boxes need no painting: those whose screen box (x0, y0, x1, y1) lies inside the rectangle of
+    a wall of another, opaque box whose farthest corner is nearer than their nearest one."""
+    if not len(rects):
+        return np.zeros(len(screen), dtype=bool)
+    inside = ((rects[None, :, 0] <= screen[:, None, 0]) & (rects[None, :, 1] <= screen[:, None, 1])
+              & (rects[None, :, 2] >= screen[:, None, 2]) & (rects[None, :, 3] >= screen[:, None, 3]))
+    before = far[None, :] < nearest[:, None]
+    other = owner[None, :] != np.arange(len(screen))[:, None]
+    return (inside & before & other & opaque[owner][None, :]).any(axis=1)
+
+
+
 @dataclass
 class Face:
     """One face of a drawn box: its corners (indices into its obstacle's points), which way it faces,
@@ -371,21 +385,28 @@ class TownView:
         keep, n = g.keep, len(g.keep)
         cam = self.camera
         faded = np.zeros(len(m.lo), dtype=bool)
-        if len(targets) and n:
-            faded[keep] = occluders(cam.eye, targets, m.lo[keep], m.hi[keep])
+        if len(targets) and n:  # only the boxes whose footprint meets the ground plan of the sight lines
+            ends = np.vstack([targets[:, :2], cam.eye[None, :2]])
+            (x0, y0), (x1, y1) = ends.min(axis=0), ends.max(axis=0)
+            near = keep[(m.lo[keep, 0] < x1) & (m.hi[keep, 0] > x0) & (m.lo[keep, 1] < y1) & (m.hi[keep, 1] > y0)]
+            if len(near):
+                faded[near] = occluders(cam.eye, targets, m.lo[near], m.hi[near])
         self.alpha = ease(self.alpha, faded, dt)
         if not n:
             return TownPlan()
         if not g.fresh:
-            calls, screen, nearest = self._drawn
+            calls, screen, nearest, walls = self._drawn
         else:
-            calls, screen, nearest = self._drawn = self._draw(m, frame, g)
-        alpha = self.alpha[keep].tolist()
-        items = [(paint_calls, c) if a >= 0.999 else (self._paint_faded, (c, a)) for c, a in zip(calls, alpha)]
+            calls, screen, nearest, walls = self._drawn = self._draw(m, frame, g)
+        opaque = self.alpha[keep] >= 0.999
+        hidden = hidden_boxes(screen, nearest, *walls, opaque).tolist()
+        items = [(paint_calls, []) if out else (paint_calls, c) if a >= 0.999 else (self._paint_faded, (c, a))
+                 for c, a, out in zip(calls, self.alpha[keep].tolist(), hidden)]
         return TownPlan(items, m.lo[keep], m.hi[keep], screen, nearest)
 
-    def _draw(self, m: TownModel, frame: Frame, g: BoxPoints) -> tuple[list[list], np.ndarray, np.ndarray]:
-        """The kept obstacles' paint calls, their screen boxes and the depths of their nearest corners."""
+    def _draw(self, m: TownModel, frame: Frame, g: BoxPoints) -> tuple:
+        """The kept obstacles' paint calls, their screen boxes, the depths of their nearest corners, and the
+        walls that may hide others (:meth:`_walls`)."""
         cam = self.camera
         level = np.minimum(FOG_LEVELS - 1, (fog(g.distance + 1.0) * ((FOG_LEVELS - 0.01) / 0.85)).astype(int))
         depth = frame.cam[g.points, 2]
@@ -395,14 +416,15 @@ class TownView:
         screen = np.column_stack([np.minimum.reduceat(xy[:, 0], g.offsets), np.minimum.reduceat(xy[:, 1], g.offsets),
                                   np.maximum.reduceat(xy[:, 0], g.offsets), np.maximum.reduceat(xy[:, 1], g.offsets)])
         screen[clipped] = (-np.inf, -np.inf, np.inf, np.inf)
-        calls = self._face_calls(m, frame, g, level, clipped)
+        calls, walls = self._face_calls(m, frame, g, level, clipped)
         self._lamp_calls(m, calls, frame, g, level, clipped)
-        return calls, screen, nearest
+        return calls, screen, nearest, walls
 
     def _face_calls(self, m: TownModel, frame: Frame, g: BoxPoints, level: np.ndarray,
-                    clipped: np.ndarray) -> list[list]:
+                    clipped: np.ndarray) -> tuple[list[list], tuple]:
         """Each kept obstacle's paint calls: its faces toward the eye (a ruin's far walls first, from
-        inside), filled then outlined, then the lines across them (a building's floors)."""
+        inside), filled then outlined, then the lines across them (a building's floors); and its walls
+        that may hide others (:meth:`_walls`)."""
         eye = self.camera.eye
         keep, n = g.keep, len(g.keep)
         faces = _ranges(m.face_starts[keep], m.face_starts[keep + 1])
@@ -428,7 +450,27 @@ class TownView:
             if len(pts) >= 3:
                 calls[r] += [(polygon, (fill, pts)), (outline, (pts, edge))]
         self._line_calls(m, calls, block, g, faces[fast], level)
-        return calls
+        side = fast & toward & (m.axis[faces] != 2) & ~m.hollow[faces]
+        return calls, self._walls(frame, g, corners[side], rank[side])
+
+    @staticmethod
+    def _walls(frame: Frame, g: BoxPoints, corners: np.ndarray, rank: np.ndarray) -> tuple:
+        """The side faces that may hide other boxes: for each, a rectangle of screen inside it, the depth of
+        its farthest corner, and its box (its place in keep).
+
+        A side's corners are (bottom a, bottom b, top b, top a) and the camera
+        never rolls, so its left and right edges are the a and b edges in some
+        order and its top and bottom edges run across: the rectangle from the
+        inner ends of each pair of edges lies inside the face.
+        """
+        xy = frame.xy[g.points][corners[:, :4]]  # (K, 4, 2)
+        depth = frame.cam[g.points, 2][corners[:, :4]]
+        a_x, b_x = xy[:, [0, 3], 0], xy[:, [1, 2], 0]  # the a edge's and the b edge's x
+        a_left = a_x.mean(axis=1) < b_x.mean(axis=1)
+        left, right = np.where(a_left[:, None], a_x, b_x), np.where(a_left[:, None], b_x, a_x)
+        rects = np.column_stack([left.max(axis=1), xy[:, 2:, 1].max(axis=1), right.min(axis=1),
+                                 xy[:, :2, 1].min(axis=1)])
+        return rects, depth.max(axis=1), rank
 
     def _lamp_calls(self, m: TownModel, calls: list[list], frame: Frame, g: BoxPoints, level: np.ndarray,
                     clipped: np.ndarray) -> None:

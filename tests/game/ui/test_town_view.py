@@ -17,7 +17,8 @@ from game.body.avatar import Avatar, BodySettings, Wearing  # noqa: E402
 from game.body.pose import ArmPose  # noqa: E402
 from game.ui.render import Renderer  # noqa: E402
 from game.ui.render.occlusion import FADE_S, FADED_ALPHA, covers, ease, occluders  # noqa: E402
-from game.ui.render.town import centre_dashes, open_outline  # noqa: E402
+from game.ui.render import town as town_module  # noqa: E402
+from game.ui.render.town import centre_dashes, hidden_boxes, open_outline  # noqa: E402
 from game.world.arena_model import ArenaEvent, HeldBall, Player, Zombie  # noqa: E402
 from game.world.town import Obstacle, Street, Town  # noqa: E402
 
@@ -62,6 +63,19 @@ def test_the_fade_eases_over_its_time_and_back():
     assert full.tolist() == pytest.approx([FADED_ALPHA, 1.0])
     assert ease(full, faded, 1.0).tolist() == pytest.approx([FADED_ALPHA, 1.0])  # it stays there
     assert ease(full, np.array([False, False]), FADE_S).tolist() == pytest.approx([1.0, 1.0])
+
+
+def test_a_box_inside_a_nearer_opaque_wall_needs_no_painting():
+    screen = np.array([[100.0, 100.0, 300.0, 400.0], [150.0, 200.0, 200.0, 260.0], [250.0, 200.0, 350.0, 260.0],
+                       [150.0, 200.0, 200.0, 260.0]])  # x0, y0, x1, y1 pixels
+    nearest = np.array([5.0, 20.0, 20.0, 6.0])  # depth of each box's nearest corner (m)
+    rects = np.array([[110.0, 120.0, 290.0, 390.0]])  # box 0's wall: inside its face on screen
+    far = np.array([8.0])  # the wall's farthest corner
+    hidden = hidden_boxes(screen, nearest, rects, far, np.array([0]), np.ones(4, dtype=bool))
+    # box 1 lies inside the wall and behind it; box 2 sticks out to the right; box 3 is within 8 m; box 0 is the wall's own
+    assert hidden.tolist() == [False, True, False, False]
+    faded = np.array([False, True, True, True])
+    assert not hidden_boxes(screen, nearest, rects, far, np.array([0]), faded).any()  # a faded wall hides nothing
 
 
 # ------------------------------------------------------------------ through the real renderer
@@ -247,3 +261,19 @@ def test_the_backdrop_behind_panels_shows_the_town_without_its_actors(screen):
     town = (pixel(r, screen, (0.0, 8.0, 5.0)), pixel(r, screen, (4.0, 6.0, 1.2)))
     assert town[0] != bare[0]  # the building's face
     assert not (town[1][1] > town[1][0] + 30)  # no green zombie where the zombie stands
+
+
+def test_leaving_out_the_hidden_boxes_changes_no_pixel(screen, monkeypatch):
+    # a car and a low ruin behind a wide building ahead, a lamp post beside; the building hides the first two
+    obstacles = [Obstacle("building", -8.0, 8.0, 8.0, 10.0, 9.0), Obstacle("car", -1.0, 14.0, 3.5, 15.8, 1.4),
+                 Obstacle("ruin", -5.0, 13.0, -2.0, 16.0, 2.5), Obstacle("lamp_post", 9.0, 6.0, 9.3, 6.3, 5.0)]
+    arena, avatar = town_arena(obstacles)
+    culled = []
+    real = town_module.hidden_boxes
+    monkeypatch.setattr(town_module, "hidden_boxes", lambda *a: culled.append(real(*a)) or culled[-1])
+    draw(arena, avatar, screen, frames=2)
+    with_culling = pygame.image.tobytes(screen, "RGB")
+    assert sum(culled[-1]) == 2  # the car and the ruin are left out
+    monkeypatch.setattr(town_module, "hidden_boxes", lambda screen, *a: np.zeros(len(screen), dtype=bool))
+    draw(arena, avatar, screen, frames=2)
+    assert pygame.image.tobytes(screen, "RGB") == with_culling
