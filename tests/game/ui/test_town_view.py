@@ -72,7 +72,8 @@ def test_a_box_inside_a_nearer_opaque_wall_needs_no_painting():
     rects = np.array([[110.0, 120.0, 290.0, 390.0]])  # box 0's wall: inside its face on screen
     far = np.array([8.0])  # the wall's farthest corner
     hidden = hidden_boxes(screen, nearest, rects, far, np.array([0]), np.ones(4, dtype=bool))
-    # box 1 lies inside the wall and behind it; box 2 sticks out to the right; box 3 is within 8 m; box 0 is the wall's own
+    # box 1 lies inside the wall and behind it; box 2 sticks out to the right; box 3 is within 8 m;
+    # box 0 is the wall's own
     assert hidden.tolist() == [False, True, False, False]
     faded = np.array([False, True, True, True])
     assert not hidden_boxes(screen, nearest, rects, far, np.array([0]), faded).any()  # a faded wall hides nothing
