@@ -4,7 +4,8 @@ What never changes for a town (every face's corners, colours, the street
 lines) is worked out once per :class:`~game.world.town.Town` object
 (:class:`TownModel`). Each frame :class:`TownView` keeps the obstacles in
 view (a sphere about each against the view's four sides), puts their
-corners into the frame's one projection, and plans each as one paint item:
+corners into the frame's one projection, leaves out those wholly behind a
+nearer wall (:func:`hidden_boxes`), and plans each as one paint item:
 its faces that look toward the camera, filled and outlined in the neon
 style, fogged with distance (a lamp post: a pole and a glowing light).
 While the camera stands still the last frame's plan is used again.
