@@ -1,11 +1,12 @@
-"""The arena: zombies, energy balls, hits, waves and score (seed 000 sec. 5). Pure logic, no pygame.
+"""The arena: zombies, energy balls, hits, waves and score (Zhu & Shi, sec. 5). Pure logic, no pygame.
 
-Seed 000's game: "an avatar of the player arrives in an abandoned town with
+Zhu & Shi's game: "an avatar of the player arrives in an abandoned town with
 zombies surrounded"; the arm throws energy balls, and "the zombie will be
 blown to the sky if it is hit by the flying ball". Here the player also walks
 (WASD, :class:`~game.world.arena_model.Controls`) while the tracked arm aims, as
-seed 002 joins an external position source with IMU orientation (its
-OptiTrack marker position plus the 3-Space sensor orientation, sec. 2).
+the IMU and infrared hand-tracking paper joins an external position source with
+IMU orientation (its OptiTrack marker position plus the 3-Space sensor
+orientation, sec. 2).
 
 Frames and units as :mod:`game.world.arena_model`: metres, seconds, radians; x east,
 y north, z up; the player's yaw 0 faces +y and a positive yaw (or turn)
@@ -128,7 +129,7 @@ class ArenaSettings:
       ``ball_max_flight_s`` 2.5: a ball flying longer has missed;
       ``ball_fade_s`` 0.6: a missed ball fades out over this;
       ``ball_damage`` 1: health a hit takes.
-    Blown up (a killed zombie, "blown to the sky", seed 000 sec. 5):
+    Blown up (a killed zombie, "blown to the sky", Zhu & Shi, sec. 5):
       launch velocity: straight up at ``blown_up_min_m_s`` 10 to
       ``blown_up_max_m_s`` 16 (uniform), plus the ball's direction times
       ``blown_push_m_s`` 3 * (1 + charge); spin ``spin_min`` 4 to ``spin_max``

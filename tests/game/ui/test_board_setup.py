@@ -24,8 +24,8 @@ from hypothesis import given, settings, strategies as st  # noqa: E402
 from game.ui.app import App, BoardSetupScreen, Menu, Play  # noqa: E402
 from game.ui.board_setup import ACCEL, ACCEL_DONE, MAG, MAG_DONE, MakerInput, fresh_samples  # noqa: E402
 from game.ui.preferences import Preferences  # noqa: E402
-from game.ui.render import (BOARD_FACES, face_normal, globe_cells, globe_image, rotation_to_up,  # noqa: E402
-                            view_rotation, visible_faces)
+from game.ui.render.board import (BOARD_FACES, face_normal, globe_cells, globe_image, rotation_to_up,  # noqa: E402
+                                  view_rotation, visible_faces)
 from tracker.calibration import BoardCalibration, ProcedureRecord, load, save_procedure  # noqa: E402
 from tracker.maker_sim import SimulatedMaker, calibration_errors  # noqa: E402
 from tracker.motion import EARTH_FIELD_UT  # noqa: E402

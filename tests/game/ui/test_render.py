@@ -14,7 +14,9 @@ import pytest  # noqa: E402
 
 from game.body.avatar import Avatar, BodySettings, Wearing  # noqa: E402
 from game.body.pose import ArmPose  # noqa: E402
-from game.ui.render import Camera, CameraRig, Particles, Renderer, clip_near, depth_order  # noqa: E402
+from game.ui.render import Renderer  # noqa: E402
+from game.ui.render.camera import Camera, CameraRig, clip_near, depth_order  # noqa: E402
+from game.ui.render.effects import Effects, Particles  # noqa: E402
 from game.world.arena_model import ArenaEvent, Ball, BallState, HeldBall, Player, Zombie, ZombieState  # noqa: E402
 
 IDENTITY = (1.0, 0.0, 0.0, 0.0)
@@ -257,10 +259,10 @@ def test_gone_zombies_and_fading_balls_and_no_held_ball(screen):
 def test_hit_makes_a_burst_that_dies_out():
     r = Renderer((1280, 720), seed=5)
     r.react([ArenaEvent("hit", (1.0, 8.0, 1.2), 0.5), ArenaEvent("spawn", (5.0, 5.0, 0.0))])
-    assert r.particles.count > 40 and len(r.flashes) == 1
+    assert r.effects.particles.count > 40 and len(r.effects.flashes) == 1
     for _ in range(150):  # 2.5 s
         r.update_effects(1 / 60)
-    assert r.particles.count == 0 and not r.flashes
+    assert r.effects.particles.count == 0 and not r.effects.flashes
 
 
 def test_particle_cap_is_respected():
@@ -270,7 +272,7 @@ def test_particle_cap_is_respected():
     assert p.count == 400
     r = Renderer((1280, 720), seed=2)
     r.react([ArenaEvent("hit", (0.0, 5.0, 1.0))] * 40)
-    assert r.particles.count <= Renderer.MAX_PARTICLES
+    assert r.effects.particles.count <= Effects.MAX_PARTICLES
 
 
 def test_effects_are_deterministic(screen):
@@ -336,7 +338,7 @@ def test_screen_helpers_draw(screen):
 
 
 def test_walking_zombie_reaches_forward_along_its_heading():
-    from game.ui.render import Z_FOOTL, Z_HANDL, Z_HANDR, Z_HEAD, Z_HIP, zombie_joints
+    from game.ui.render.actors import Z_FOOTL, Z_HANDL, Z_HANDR, Z_HEAD, Z_HIP, zombie_joints
     for heading, forward in ((0.0, (1.0, 0.0)), (math.pi / 2, (0.0, 1.0))):
         j = zombie_joints([2.0], [3.0], [0.0], [math.pi / 2], [heading], [0.0], [False], [0.0])[0]  # mid-stride
         reach = (j[Z_HANDL, :2] + j[Z_HANDR, :2]) / 2 - j[Z_HIP, :2]
@@ -346,7 +348,7 @@ def test_walking_zombie_reaches_forward_along_its_heading():
 
 
 def test_flying_zombie_tumbles_with_spin_and_scales_with_height():
-    from game.ui.render import Z_HEAD, Z_HIP, zombie_joints
+    from game.ui.render.actors import Z_HEAD, Z_HIP, zombie_joints
     upright, flipped = zombie_joints([0, 0], [0, 0], [5.0, 5.0], [0, 0], [0, 0], [0.0, math.pi], [True, True],
                                      [0.3, 0.3])
     assert upright[Z_HEAD, 2] > upright[Z_HIP, 2] > 5.0
@@ -356,7 +358,7 @@ def test_flying_zombie_tumbles_with_spin_and_scales_with_height():
 
 
 def test_ground_grid_lines_every_two_metres_on_a_disc():
-    from game.ui.render import grid_segments
+    from game.ui.render.world import grid_segments
     a, b = grid_segments(10.0, -4.0, 2.0, 56.0)
     xs = np.unique(a[: len(a) // 2, 0])
     assert np.diff(xs) == pytest.approx(2.0) and xs.min() > 10 - 56 and xs.max() < 10 + 56
@@ -373,7 +375,7 @@ def test_title_glow_leaves_no_box(screen):
 
 
 def test_ring_runs_do_not_wrap_across_the_seam():
-    from game.ui.render import _runs
+    from game.ui.render.world import _runs
     a, b = [[i, 0] for i in range(4)], [[i + 1, 0] for i in range(4)]
     assert _runs([True, True, False, True], a, b) == [[[3, 0], [4, 0], [1, 0], [2, 0]]]
     assert _runs([True, False, True, False], a, b) == [[[2, 0], [3, 0]], [[0, 0], [1, 0]]]
