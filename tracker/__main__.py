@@ -553,7 +553,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("experiment", help="reproduce a paper's experiment in simulation")
     p.add_argument("name", choices=["static-drift", "finger-grasp"],
-                   help="static-drift: seed 002 sec. 4.1; finger-grasp: seed 003 sec. 3")
+                   help="static-drift: the IMU and infrared hand-tracking paper, sec. 4.1; finger-grasp: "
+                        "Inertial Sensor Based Solution for Finger Motion Tracking (Computers 9(2):40, 2020), sec. 3")
     p.add_argument("--plot", metavar="PNG", help="also draw the result (needs the plot extra)")
     p.add_argument("--json", action="store_true", help="one line of JSON")
     p.set_defaults(func=cmd_experiment)

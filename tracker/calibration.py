@@ -9,16 +9,17 @@ microtesla.
   detection: low-pass the gyroscope and the accelerometer, call a sample still
   while it stays near its low-passed value, and declare rest once the samples
   have been still for a minimum time.
-- Gyroscope bias: :func:`startup_bias` ("hold still" at start-up: the bias from
-  a hold in which a real arm trembles and sways, :func:`fit_hold`, refused only
-  when the arm really moved), :class:`ContinuousBias` (re-estimated slowly during
-  every rest phase) and :class:`ThresholdBias`, seed 002's method kept as the baseline.
+- Gyroscope bias: :func:`startup_bias` ("hold still" at start-up: the bias from a
+  hold in which a real arm trembles and sways, :func:`fit_hold`, refused only when
+  the arm really moved), :class:`ContinuousBias` (re-estimated slowly during every
+  rest phase) and :class:`ThresholdBias`, the IMU and infrared hand-tracking
+  paper's method kept as the baseline.
 - :func:`six_pose_calibration`: accelerometer offset, scale and, optionally, a
   small misalignment, from the board held still with each axis up and down.
 - :class:`BoardCalibration`: all of it for one board, applied to samples, saved
   per board as JSON (atomically) and loaded with clear errors.
 
-Seed 000 sec. 6 lists weaknesses this module answers in part: the yaw drift its
+Sec. 6 of Zhu & Shi lists weaknesses this module answers in part: the yaw drift its
 complementary filter cannot correct (a gyroscope bias about the vertical is what
 drives it, so removing the bias slows it) and differences from board to board
 (kept per board id).
@@ -28,7 +29,7 @@ References
     with Bias Estimation and Magnetic Disturbance Rejection", Information Fusion
     91 (2023) 187-204, doi:10.1016/j.inffus.2022.10.014; its rest detection,
     part of its rest bias estimation (defaults: 2 deg/s, 0.5 m/s^2, 1.5 s, 0.5 s).
-    Seed 002: ../shared/papers/002_*.txt, sec. 2.2 "Bias Offset Estimation", eq. 2.
+    The hand-tracking paper (../shared/papers/002_*.txt), sec. 2.2 "Bias Offset Estimation", eq. 2.
     Tedaldi 2014: D. Tedaldi, A. Pretto and E. Menegatti, "A robust and easy to
     implement method for IMU calibration without external equipments", ICRA 2014:
     static poses, a triangular misalignment times a scale, and a cost that
@@ -372,9 +373,10 @@ def fit_hold(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
     While "still" a real arm trembles and sways, so the mean rate is the bias plus the
     arm's net rotation over the hold divided by its length. The accelerometer sees
     the rotation about horizontal axes: it reads g v(t) plus the acceleration of the
-    board (seed 003 sec. 2.1: a = R^T (p'' - g)), v the up direction in the sensor
-    frame. The gyroscope, integrated exactly (:func:`_turned`, rotation q(t) since
-    the start), predicts v(t) = q(t)^-1 v0 q(t); a bias error db left in the rates
+    board (Inertial Sensor Based Solution for Finger Motion Tracking, Computers
+    9(2):40, 2020, sec. 2.1: a = R^T (p'' - g)), v the up direction in the sensor
+    frame. The gyroscope, integrated exactly (:func:`_turned`, rotation q(t) since the
+    start), predicts v(t) = q(t)^-1 v0 q(t); a bias error db left in the rates
     turns the prediction by db t, so a / g - v = t (db x v) + const + lever terms,
     whatever the tremor and sway. The board sits at r from the joint it turns about,
     so it feels w' x r + w x (w x r) (Seel, Raisch & Schauer, "IMU-based joint angle
@@ -469,7 +471,7 @@ def startup_bias(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
     """The gyroscope bias from a "hold still" window at start-up.
 
     ``t`` is (N,) seconds, ``gyr`` (N, 3) rad/s, ``acc`` (N, 3) m/s^2. At rest the
-    gyroscope reads only bias plus noise (seed 002 sec. 2.2); a person's arm also
+    gyroscope reads only bias plus noise (the hand-tracking paper, sec. 2.2); a person's arm also
     trembles and sways, which :func:`fit_hold` separates from the bias. The hold is
     refused, with the reason, when it is too short, when the arm tilted further
     than sway can (``max_tilt``), when it turned in a way its tilt does not explain
@@ -538,7 +540,7 @@ class ContinuousBias:
         return self._detector.rest
 
     def update(self, gyr: ArrayLike, acc: ArrayLike, dt: float) -> Array:
-        """Feed one sample; the bias-corrected rate omega_B = omega_0 - b (seed 002 eq. 2)."""
+        """Feed one sample; the bias-corrected rate omega_B = omega_0 - b (the hand-tracking paper, eq. 2)."""
         g = _vec3(gyr)
         if self._detector.update(g - self._bias, _vec3(acc), dt):
             self._bias += _lowpass_gain(dt, self.params.tau) * (g - self._bias)
@@ -547,7 +549,7 @@ class ContinuousBias:
 
 @dataclass(frozen=True)
 class ThresholdBiasParams:
-    """Settings of :class:`ThresholdBias` (seed 002 sec. 2.2).
+    """Settings of :class:`ThresholdBias` (the hand-tracking paper, sec. 2.2).
 
     ``threshold``: rate norm (rad/s) below which a sample counts; the paper gives no
     value: 6 deg/s sits above the MPU-9250's +-5 deg/s zero-rate offset, so a still
@@ -560,7 +562,7 @@ class ThresholdBiasParams:
 
 
 class ThresholdBias:
-    """Seed 002's bias offset estimation (sec. 2.2, eq. 2), kept as the baseline.
+    """The hand-tracking paper's bias offset estimation (sec. 2.2, eq. 2), kept as the baseline.
 
     A new bias is the arithmetic mean of the last ``count`` consecutive samples whose
     rate is below ``threshold``; eq. 2 subtracts it: omega_B = omega_0 - b. Its
@@ -581,7 +583,7 @@ class ThresholdBias:
         return self._bias.copy()
 
     def update(self, gyr: ArrayLike) -> Array:
-        """Feed one sample; the bias-corrected rate (seed 002 eq. 2)."""
+        """Feed one sample; the bias-corrected rate (the hand-tracking paper, eq. 2)."""
         g = _vec3(gyr)
         if np.all(np.isfinite(g)) and np.linalg.norm(g) < self.params.threshold:
             self._run.append(g)
@@ -944,7 +946,7 @@ class BoardCalibration:
     """Everything calibrated for one board; the defaults correct nothing.
 
     :meth:`apply_arrays` computes
-        gyr_cal = gyr - gyro_bias                                (seed 002 eq. 2)
+        gyr_cal = gyr - gyro_bias                                (the hand-tracking paper, eq. 2)
         acc_cal = acc_misalignment @ (acc_scale * (acc - acc_offset))   (Tedaldi 2014)
         mag_cal = mag_soft_iron @ (mag - mag_hard_iron)          (hard/soft iron)
     in rad/s, m/s^2 and uT. ``board_id`` names the board's file (see :func:`board_id_of`).

@@ -1,11 +1,13 @@
-"""The seed papers' simulation experiments, rerun on our simulator and filters.
+"""The papers' simulation experiments, rerun on our simulator and filters.
 
-- :func:`static_drift`: seed 002, sec. 4.1, the 5-minute static test: three
-  IMUs lying still, each with its own gyroscope bias offset, their orientation
-  estimated with the orientation correction (eqs. 2, 5-16) disabled and enabled.
-- :func:`finger_grasp`: seed 003, sec. 3 and Figure 10: the grasp motion on the
-  three-link finger, three series of sensor errors (white noise, zero offset,
-  both), 32 motion durations, the RMS error of four estimators against duration.
+- :func:`static_drift`: the IMU and infrared hand-tracking paper, sec. 4.1, the
+  5-minute static test: three IMUs lying still, each with its own gyroscope bias
+  offset, their orientation estimated with the orientation correction (eqs. 2, 5-16)
+  disabled and enabled.
+- :func:`finger_grasp`: Inertial Sensor Based Solution for Finger Motion Tracking
+  (Computers 9(2):40, 2020), sec. 3 and Figure 10: the grasp motion on the
+  three-link finger, three series of sensor errors (white noise, zero offset, both),
+  32 motion durations, the RMS error of four estimators against duration.
 
 Both return plain dicts ready for ``json.dumps``; :func:`plot_static_drift` and
 :func:`plot_finger_grasp` draw them (matplotlib, an optional dependency).
@@ -13,8 +15,8 @@ Long runs report their progress through an optional ``progress(message)``.
 
 Conventions (ARCHITECTURE.md): ``q_WS`` maps sensor to world, world z up. On
 the finger (:func:`tracker.sim.finger_chain`) every link frame turns about the
-world x axis only, so a link's orientation is its flexion angle theta (seed
-003, sec. 2.1: the angle between y and y_i, about x). With ``R(theta)`` the
+world x axis only, so a link's orientation is its flexion angle theta (the finger-tracking paper
+, sec. 2.1: the angle between y and y_i, about x). With ``R(theta)`` the
 rotation about x, the sensor's y axis points along ``(0, cos theta, sin theta)``
 in the world and the specific force at rest reads ``(0, g sin theta, g cos theta)``.
 """
@@ -40,7 +42,7 @@ Progress = Callable[[str], None] | None
 
 SERIES = {"noise": (True, False), "bias": (False, True), "both": (True, True)}  # (noise, offset)
 ALGORITHMS = ("gravity", "integration", "switching", "hinge")
-GRASP_DELAY_S = 0.2  # seed 003, sec. 3: t_d
+GRASP_DELAY_S = 0.2  # the finger-tracking paper, sec. 3: t_d
 STATIC_BIASES_DPS = (0.05, 0.1, 0.2)
 _GRAVMAG_OFF = {"rest_threshold": 0.0, "tau_acc": math.inf, "tau_mag": math.inf}
 
@@ -51,17 +53,17 @@ def _report(progress: Progress, message: str) -> None:
         progress(message)
 
 
-# ------------------------------------------------------------ seed 002, sec. 4.1
+# ------------------------------------------------------------ the hand-tracking paper, sec. 4.1
 
 
 def _static_simulator(biases_dps: Sequence[float], seed: int) -> sim.Simulator:
-    """Seed 002, sec. 4.1: IMUs "fixed to a table", here lying flat (q_WS = 1), one per bias.
+    """The hand-tracking paper, sec. 4.1: IMUs "fixed to a table", here lying flat (q_WS = 1), one per bias.
 
     They carry the MPU-9250's white noise (:func:`tracker.sim.mpu9250`) but no
     random offsets: each gyroscope's offset is the given bias, added by
     :func:`static_drift`, and the accelerometers have none, so the corrected
     estimate is limited by noise alone. The magnetometer is noise-free: the
-    test isolates the gyroscopes' drift, and seed 002's IMUs (Yost 3-Space)
+    test isolates the gyroscopes' drift, and the hand-tracking paper's IMUs (Yost 3-Space)
     are not AK8963s, whose noise the harsh-world figures carry elsewhere.
     """
     chain = sim.Chain((sim.LinkSpec("table", 0.0),),
@@ -75,11 +77,11 @@ def _static_simulator(biases_dps: Sequence[float], seed: int) -> sim.Simulator:
 def static_drift(minutes: float = 5.0, rate: float = 100.0,
                  biases_dps: Sequence[float] = STATIC_BIASES_DPS, seed: int = 0,
                  progress: Progress = None) -> dict:
-    """Seed 002, sec. 4.1: the orientation error of static IMUs after ``minutes``.
+    """The hand-tracking paper, sec. 4.1: the orientation error of static IMUs after ``minutes``.
 
     IMU i's gyroscope reads ``b_i`` deg/s on each of its three axes (a bias
     vector of length ``sqrt(3) b_i``) plus MPU-9250 white noise. Two runs of the
-    seed 002 filter (:mod:`tracker.fusion.gravmag`) per IMU:
+    the hand-tracking paper filter (:mod:`tracker.fusion.gravmag`) per IMU:
 
     - "off": the correction disabled (Fig. 11) by its parameters: no bias
       estimation at rest (``rest_threshold=0``: no sample counts as rest, so
@@ -91,7 +93,7 @@ def static_drift(minutes: float = 5.0, rate: float = 100.0,
       wraps at half a turn).
     - "on": the filter as it ships (Fig. 12).
 
-    Seed 002 gives no bias values; the defaults are residual biases of a few
+    The hand-tracking paper gives no bias values; the defaults are residual biases of a few
     hundredths of a degree per second. They must stay well under the filter's
     rest threshold (1.5 deg/s, in norm: ``sqrt(3) b`` plus noise), or the
     corrected filter never sees the IMU at rest and cannot estimate the bias.
@@ -121,11 +123,11 @@ def _end_errors(q_est: Array, q_true: Array) -> tuple[float, float]:
     return math.degrees(float(total)), math.degrees(float(inclination))
 
 
-# ------------------------------------------------------------ seed 003, sec. 3
+# ------------------------------------------------------------ the finger-tracking paper, sec. 3
 
 
 def paper_errors(noise: bool, offset: bool) -> sim.SensorErrors:
-    """Seed 003, sec. 3's sensor errors: MPU-9250 white noise and/or zero offset, nothing else.
+    """The finger-tracking paper, sec. 3's sensor errors: MPU-9250 white noise and/or zero offset, nothing else.
 
     The paper adds only these two to ideal, calibrated readings, so the
     quantisation and full-scale clipping of :func:`tracker.sim.mpu9250` are
@@ -142,7 +144,7 @@ def grasp_rate(move_s: float, rate: float, max_rate: float, motion_samples: int)
     """The sample rate for a grasp of ``move_s`` seconds: ``rate``, raised for short motions
     so that the motion spans at least ``motion_samples`` samples, at most ``max_rate``.
 
-    Seed 003 gives no rate. A fixed 100 Hz would leave a 0.1 s grasp 10 samples
+    The finger-tracking paper gives no rate. A fixed 100 Hz would leave a 0.1 s grasp 10 samples
     (80 degrees per sample on the distal phalanx); the MPU-9250 samples its
     gyroscope at up to 8 kHz, its accelerometer at up to 4 kHz. The white noise
     scales with the rate (density times sqrt(rate)), as a sensor whose low-pass
@@ -152,7 +154,7 @@ def grasp_rate(move_s: float, rate: float, max_rate: float, motion_samples: int)
 
 
 def flexion_angle(q_ws: Array) -> Array:
-    """The flexion angle theta of a link from its orientation (seed 003, sec. 2.1), heading-free.
+    """The flexion angle theta of a link from its orientation (the finger-tracking paper, sec. 2.1), heading-free.
 
     In the vertical flexion plane theta is fixed by the link's inclination:
     world up seen from the sensor, ``q* (0, 0, 1) q``, is ``(0, sin theta,
@@ -167,7 +169,7 @@ def flexion_angle(q_ws: Array) -> Array:
 
 
 def gravity_angle(acc: Array) -> Array:
-    """The slow-motion estimate, seed 003 sec. 2.2.2, sample by sample: theta from gravity alone.
+    """The slow-motion estimate, the finger-tracking paper, sec. 2.2.2, sample by sample: theta from gravity alone.
 
     The paper's ``atan2(f3, f2)`` in its axes; in ours the specific force at
     rest is ``(0, g sin theta, g cos theta)`` (module docstring), so
@@ -178,7 +180,7 @@ def gravity_angle(acc: Array) -> Array:
 
 
 def integrated_angle(gyr_x: Array, theta0: Array, rate: float) -> Array:
-    """The fast-motion estimate, seed 003 sec. 2.2.3: ``theta_t = int(theta_{t-1}, omega)``
+    """The fast-motion estimate, the finger-tracking paper, sec. 2.2.3: ``theta_t = int(theta_{t-1}, omega)``
     from the true initial angle (sec. 3: "the known accurate initial estimate").
 
     Flat model: theta turns about x, so only the gyroscope's x axis counts. The
@@ -191,7 +193,7 @@ def integrated_angle(gyr_x: Array, theta0: Array, rate: float) -> Array:
 
 
 def _filter_params(name: str, sensor: sim.SensorSpec, chain: sim.Chain, rate: float) -> dict:
-    """Settings of the seed 003 filters for one finger sensor, from the paper and the data sheet.
+    """Settings of the finger-tracking paper's filters for one finger sensor, from the paper and the data sheet.
 
     Both are set for an MPU-9250 as its data sheet describes it, the same in
     every error series (the paper's filters do not know which series runs):
@@ -218,7 +220,7 @@ def _filter_params(name: str, sensor: sim.SensorSpec, chain: sim.Chain, rate: fl
 
 
 def grasp_estimates(data: sim.SimData, chain: sim.Chain, rate: float) -> dict[str, Array]:
-    """Each algorithm's flexion angles (N, sensors) for one simulated grasp (seed 003, sec. 3).
+    """Each algorithm's flexion angles (N, sensors) for one simulated grasp (the finger-tracking paper, sec. 3).
 
     The two filters run through the common interface (``make(name).run``) from
     their own start: levelled by the first accelerometer sample, during the
@@ -238,7 +240,7 @@ def grasp_estimates(data: sim.SimData, chain: sim.Chain, rate: float) -> dict[st
 def rms_error_deg(estimate: Array, truth: Array) -> float:
     """RMS over all samples and sensors of the flexion-angle error, wrapped to (-180, 180] degrees.
 
-    Seed 003, Figure 10: "the RMS of the algorithms' estimation error over the
+    The finger-tracking paper, Figure 10: "the RMS of the algorithms' estimation error over the
     course of the whole movement". The integration estimate is continuous, so
     wrapping changes it only where its error passes half a turn.
     """
@@ -247,7 +249,7 @@ def rms_error_deg(estimate: Array, truth: Array) -> float:
 
 
 def grasp_errors(move_s: float, rate: float, errors: sim.SensorErrors, seed: int) -> dict[str, float]:
-    """One test of seed 003, sec. 3: simulate the grasp, run every algorithm, their RMS errors."""
+    """One test of the finger-tracking paper, sec. 3: simulate the grasp, run every algorithm, their RMS errors."""
     chain = sim.finger_chain()
     data = sim.Simulator(chain, sim.grasp(move_s, GRASP_DELAY_S), errors, seed=seed
                          ).simulate(GRASP_DELAY_S + move_s, rate)
@@ -259,7 +261,7 @@ def grasp_errors(move_s: float, rate: float, errors: sim.SensorErrors, seed: int
 def finger_grasp(durations: Sequence[float] = tuple(np.logspace(-1, 3, 32)), rate: float = 100.0,
                  max_rate: float = 1000.0, motion_samples: int = 100, seed: int = 0,
                  progress: Progress = None) -> dict:
-    """Seed 003, sec. 3 and Figure 10: RMS flexion-angle error against grasp duration.
+    """The finger-tracking paper, sec. 3 and Figure 10: RMS flexion-angle error against grasp duration.
 
     For each error series (white noise; zero offset; both: MPU-9250 figures,
     :func:`paper_errors`) and each motion duration t_m: the grasp
@@ -318,7 +320,7 @@ def _save_png(fig, path: str | os.PathLike) -> None:
 
 
 def plot_static_drift(result: dict, path: str | os.PathLike) -> None:
-    """Seed 002, Figs. 11-12 in one chart: each IMU's final error with correction off and on."""
+    """The hand-tracking paper, Figs. 11-12 in one chart: each IMU's final error with correction off and on."""
     imus = result["imus"]
     fig = _figure(6, 4)
     ax = fig.subplots()
@@ -328,13 +330,13 @@ def plot_static_drift(result: dict, path: str | os.PathLike) -> None:
     ax.set_xticks(x, [f"{m['bias_dps']:g} deg/s" for m in imus])
     ax.set_xlabel("gyroscope bias (on each axis)")
     ax.set_ylabel(f"orientation error after {result['minutes']:g} min (deg)")
-    ax.set_title("Static drift (seed 002, sec. 4.1)")
+    ax.set_title("Static drift (the IMU and infrared hand-tracking paper, sec. 4.1)")
     ax.legend()
     _save_png(fig, path)
 
 
 def plot_finger_grasp(result: dict, path: str | os.PathLike) -> None:
-    """Seed 003, Figure 10: RMS error against motion duration, one panel per error series."""
+    """The finger-tracking paper, Figure 10: RMS error against motion duration, one panel per error series."""
     series = result["series"]
     fig = _figure(4.5 * len(series), 4)
     axes = np.atleast_1d(fig.subplots(1, len(series), sharey=True))
@@ -346,5 +348,6 @@ def plot_finger_grasp(result: dict, path: str | os.PathLike) -> None:
         ax.grid(True, which="both", alpha=0.3)
     axes[0].set_ylabel("RMS flexion-angle error (deg)")
     axes[0].legend()
-    fig.suptitle("Finger grasp (seed 003, sec. 3, Figure 10)")
+    fig.suptitle("Finger grasp (Inertial Sensor Based Solution for Finger Motion Tracking, Computers 9(2):40, 2020, "
+                 "sec. 3, Figure 10)")
     _save_png(fig, path)

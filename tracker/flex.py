@@ -1,6 +1,6 @@
 """The elbow flex sensor: ADC -> volts -> ohms -> degrees, per-user calibration, streaming.
 
-The circuit (seed 000, sec. 4, Fig. 4). The flex sensor is the feedback
+The circuit (Zhu & Shi, sec. 4, Fig. 4). The flex sensor is the feedback
 resistor of an op-amp whose non-inverting input sits at Vref; a constant
 current flows from Vcc through Rf into the inverting node and on through the
 sensor, so the output is linear in the sensor's resistance:
@@ -67,7 +67,7 @@ class FlexCalibrationError(ValueError):
 
 @dataclass(frozen=True)
 class FlexCircuit:
-    """The op-amp stage and the ADC (seed 000, sec. 4, eqs. 1-2)."""
+    """The op-amp stage and the ADC (Zhu & Shi, sec. 4, eqs. 1-2)."""
 
     vcc_v: float = 5.0  # supply
     vref_v: float = 2.5  # non-inverting input
@@ -117,7 +117,7 @@ class FlexCircuit:
 class FlexSensor:
     """Resistance against elbow angle: linear between straight and fully bent.
 
-    Linear in angle is the paper's assumption (seed 000, sec. 4), which it also
+    Linear in angle is the paper's assumption (Zhu & Shi, sec. 4), which it also
     warns is only approximate; a person's real response is captured by a
     :class:`FlexCalibration` instead. Defaults: 12 kOhm straight, 50 kOhm at
     :data:`FULL_BEND_DEG` (sec. 4).
@@ -203,7 +203,7 @@ class FlexCalibration:
 
     @classmethod
     def paper(cls) -> FlexCalibration:
-        """Seed 000's map theta = -(adc - 390) / 3 (eq. 3) over its 0-90 degree range."""
+        """Zhu & Shi's map theta = -(adc - 390) / 3 (eq. 3) over its 0-90 degree range."""
         return cls(adc_straight=390.0, adc_bent=390.0 - 3.0 * 90.0, bent_deg=90.0)
 
     @classmethod
@@ -222,7 +222,7 @@ class FlexCalibration:
         full bend (called ``bent_deg``); each of ``middle`` is (samples, the
         angle held, e.g. 90 against a table edge). Each pose counts by its
         mean. Two poses give a line; with middle poses ``curve`` is their
-        least-squares fit, an exact quadratic through one (seed 000, sec. 6:
+        least-squares fit, an exact quadratic through one (Zhu & Shi, sec. 6:
         the response differs from person to person).
         """
         s0, s1 = _pose_mean(straight, "straight", adc_max), _pose_mean(bent, "bent", adc_max)
@@ -358,7 +358,7 @@ class FlexTracker:
     Simple Speed-based Low-pass Filter for Noisy Input in Interactive Systems",
     CHI 2012): a one-pole low-pass whose cutoff rises with the smoothed speed,
     fc = min_cutoff + beta |d deg/dt|, so a still arm is steady and a snapping
-    elbow (the launch gesture, seed 000 sec. 5) lags by only 1 / (2 pi fc).
+    elbow (the launch gesture, Zhu & Shi, sec. 5) lags by only 1 / (2 pi fc).
     As in the paper's own algorithm (its Fig. 1 listing: dx = (x -
     x_hat_prev) * rate), the speed is the new raw angle less the previous
     *smoothed* one: it includes what the output still lags behind, so the
@@ -376,7 +376,7 @@ class FlexTracker:
     Range following: a count beyond the calibrated straight or bent end pulls
     that end towards it with time constant ``range_tau_s``, so a brief spike
     barely moves it while a player who really reaches further (or a fatigued
-    sensor, seed 000 sec. 6) widens the range within seconds.
+    sensor, Zhu & Shi, sec. 6) widens the range within seconds.
 
     Health: a count at a rail holds the last good angle and does not move the
     range; a count unchanged for ``stuck_after_s`` is reported stuck.

@@ -11,7 +11,7 @@ The CRC is CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, no reflection, no
 final xor) over ``len``, ``type`` and the payload; ``binascii.crc_hqx`` computes
 exactly that in C. All multi-byte fields are little endian (the AVR's order).
 
-The paper's board (seed 000, sec. 4) instead printed one text line per sample
+The paper's board (Zhu & Shi, sec. 4) instead printed one text line per sample
 at 9600 baud: a quaternion and the flex angle. :class:`TextDecoder` reads that
 stream so a board running a paper-style sketch still works.
 """
@@ -214,7 +214,7 @@ class RawSample(NamedTuple):
 
 
 class FusedSample(NamedTuple):
-    """The board's own orientation estimate (the paper's mode, seed 000 sec. 3-4).
+    """The board's own orientation estimate (the paper's mode, Zhu & Shi, sec. 3-4).
 
     ``q`` is q_WS, scalar first; ``flex_deg`` the elbow angle (0 = straight).
     Text-mode samples have no device clock: ``t_us`` is None and ``t`` is host time.
@@ -614,7 +614,7 @@ MAX_LINE = 256
 
 @dataclass
 class TextDecoder:
-    """Decoder of the paper's text stream (seed 000 sec. 4: 9600 baud to the PC).
+    """Decoder of the paper's text stream (Zhu & Shi, sec. 4: 9600 baud to the PC).
 
     One line per sample holding five numbers, a quaternion and the flex angle
     in degrees, separated by commas, spaces or tabs (labels are ignored).

@@ -1,24 +1,25 @@
 """The sensor simulator: a kinematic chain carrying virtual MPU-9250s and the flex circuit.
 
-The body is seed 003's chain of rigid links on hinges (sec. 2.1) made 3-D:
-the root link turns freely (3 DoF) about its joint, which stays at the world
-origin; every further link hangs on a hinge at the far end of the link before
-it. A link's frame sits at its own joint, coincides with its parent's frame
-when the hinge angle is zero (seed 003, sec. 2.1), and the link runs
-``length_m`` along ``direction`` in it. So, with ``q_k`` the orientation of
-link k in the world and ``o_k`` its joint's position,
+The body is the chain of rigid links on hinges of Inertial Sensor Based Solution
+for Finger Motion Tracking (Computers 9(2):40, 2020; sec. 2.1) made 3-D: the
+root link turns freely (3 DoF) about its joint, which stays at the world origin;
+every further link hangs on a hinge at the far end of the link before it. A
+link's frame sits at its own joint, coincides with its parent's frame when the
+hinge angle is zero (the finger-tracking paper, sec. 2.1), and the link runs
+``length_m`` along ``direction`` in it. So, with ``q_k`` the orientation of link
+k in the world and ``o_k`` its joint's position,
 
     q_0 = root(t),    q_k = q_{k-1} * exp(hinge_k theta_k(t) / 2),
     o_0 = 0,          o_k = o_{k-1} + R(q_{k-1}) l_{k-1} d_{k-1},
 
-the 3-D form of seed 003's r_i = R_i {0, l_i, 0} and s_k = sum r_i + h_k.
+the 3-D form of the finger-tracking paper's r_i = R_i {0, l_i, 0} and s_k = sum r_i + h_k.
 A sensor sits at ``position_m`` in its link's frame, turned by ``mount``
-(q_LS: a wearing offset, seed 000 sec. 6), and the motion may turn it on
+(q_LS: a wearing offset, Zhu & Shi, sec. 6), and the motion may turn it on
 its link as time goes (``Motion.mount``: a board rocking on soft tissue),
 q_WS = q_k q_m(t) q_LS. What it feels:
 
     gyr = 2 Im(q_WS^-1 dq_WS/dt)     body angular rate (q' = q w / 2, Sola 2017)
-    acc = R_WS^T (p'' - g)            specific force, g = (0, 0, -9.81) (seed 003, sec. 2.1)
+    acc = R_WS^T (p'' - g)            specific force, g = (0, 0, -9.81) (the finger-tracking paper, sec. 2.1)
     mag = R_WS^T m                    the earth's field m, ENU, in microtesla
 
 Trajectories are plain functions of time, so their derivatives are taken
@@ -30,7 +31,7 @@ itself loses digits). The stencil is summed term by term, so every sample is
 rounded alike wherever it sits in a batch. Trajectories should be smooth: at a jump of the third derivative the
 samples within 1 ms err by O(h x jump).
 
-Sensor errors (seed 003, sec. 3: white noise, zero offset, both; MPU-9250
+Sensor errors (the finger-tracking paper, sec. 3: white noise, zero offset, both; MPU-9250
 data-sheet figures) are white noise, a constant offset, a warm-up drift of
 that offset, a random-walk drift, a scale error, quantisation and saturation
 (:class:`ErrorModel`). A real board adds its own magnetic errors and a room's
@@ -175,7 +176,7 @@ class Motion:
 
 @dataclass(frozen=True)
 class ErrorModel:
-    """What one sensor adds to the truth, axis by axis (seed 003, sec. 3).
+    """What one sensor adds to the truth, axis by axis (the finger-tracking paper, sec. 3).
 
     measured = saturate(quantise((1 + scale) truth + offset + w(t) + drift + noise)),
     with the scale and offset drawn once per axis, uniformly within their
@@ -314,9 +315,9 @@ class SensorErrors:
 
 def mpu9250(noise: bool = True, offset: bool = True, scale: bool = False,
             acc_fs_g: int = 16, gyr_fs_dps: int = 2000) -> SensorErrors:
-    """MPU-9250 data-sheet errors; seed 003 (sec. 3) ran noise only, offset only, and both.
+    """MPU-9250 data-sheet errors; the finger-tracking paper (sec. 3) ran noise only, offset only, and both.
 
-    Seed 003 assumed calibrated scale factors, hence ``scale`` off by default.
+    The finger-tracking paper assumed calibrated scale factors, hence ``scale`` off by default.
     Quantisation and saturation are those of 16-bit counts at the full scales
     (the virtual board's defaults). The magnetometer has white noise
     (:data:`MAG_NOISE_DENSITY`), is quantised (0.15 uT) and saturated; the
@@ -805,12 +806,12 @@ class SimulatedSource:
 
 
 def arm_chain(upper_arm_m: float = 0.30, forearm_m: float = 0.27, sensor_m: float = 0.30) -> Chain:
-    """Seed 000's arm: the IMU on the upper arm near the elbow, the elbow a hinge about its y.
+    """Zhu & Shi's arm: the IMU on the upper arm near the elbow, the elbow a hinge about its y.
 
     The root is the upper arm turning about the shoulder; at identity it hangs
     along -z with the sensor
     ``sensor_m`` below the shoulder. The forearm hinges about the sensor's y
-    axis (seed 000, sec. 3; ARCHITECTURE.md); a positive flex swings it toward
+    axis (Zhu & Shi, sec. 3; ARCHITECTURE.md); a positive flex swings it toward
     the sensor's -x. The flex sensor spans that hinge. Add the hand (0.08 m)
     to ``forearm_m`` for the fingertips.
     """
@@ -856,10 +857,10 @@ def arm_source(rate_hz: float = 200.0, seed: int = 0) -> SimulatedSource:
 
 
 def finger_chain(lengths_m: Vec3 = (0.045, 0.025, 0.020), sensor_at: float = 0.5) -> Chain:
-    """Seed 003's finger (sec. 2.1): three phalanges on hinges about x, each along its y.
+    """The finger-tracking paper's finger (sec. 2.1): three phalanges on hinges about x, each along its y.
 
     The root is the metacarpus, of zero length, so the first joint (MCP) is
-    at the origin; its orientation is known (seed 003 tracks it optically).
+    at the origin; its orientation is known (the finger-tracking paper tracks it optically).
     Sensors sit on phalanges 1 and 2 (counted from 0 at the metacarpus, as the
     paper's phalanges 1 and 2) at ``sensor_at`` of their length (alpha_k).
     The lengths are a typical adult index finger (assumed: the paper gives none).
@@ -873,7 +874,7 @@ def finger_chain(lengths_m: Vec3 = (0.045, 0.025, 0.020), sensor_at: float = 0.5
 
 
 def grasp(move_s: float, delay_s: float = 0.2) -> Motion:
-    """Seed 003's test motion (sec. 3): still for ``delay_s``, the straight finger extends
+    """The finger-tracking paper's test motion (sec. 3): still for ``delay_s``, the straight finger extends
     to -28 degrees at the first joint over move/3, then flexes it to 90 degrees and the
     other two joints to 85 degrees together over 2 move/3; the metacarpus stays still.
 

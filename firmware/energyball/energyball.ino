@@ -1,5 +1,5 @@
 /* EnergyBall arm tracker firmware: Adafruit Metro Mini (ATmega328P, 16 MHz), an
- * MPU-9250 on I2C and a flex sensor through an op-amp on A0 (seed 000, Zhu & Shi,
+ * MPU-9250 on I2C and a flex sensor through an op-amp on A0 (Zhu & Shi,
  * "Motion Control in VR", sec. 4), streaming the wire protocol of
  * firmware/PROTOCOL.md at 500000 baud: RAW frames (sensor counts), or FUSED frames
  * (the paper's complementary filter, sec. 3, run on the board, and the flex angle
@@ -127,8 +127,9 @@ static void show_led(uint8_t pattern)
 
 /* ------------------------------------------------------------ sensors */
 
-/* Seed 002, eq. 2's idea at boot: if the gyroscope is still, its mean is the bias,
- * kept in EEPROM; a board moved during boot reuses the stored one. */
+/* The IMU and infrared hand-tracking paper's eq. 2, at boot: if the gyroscope is
+ * still, its mean is the bias, kept in EEPROM; a board moved during boot reuses the
+ * stored one. */
 static void measure_gyro_bias()
 {
     eb_still_t still;

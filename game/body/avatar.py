@@ -8,12 +8,12 @@ from its own joint (torso bones point up, along +z, by negative offsets).
 The elbow hinge is the upper arm's x axis: a positive flex turns the
 forearm about +x, bringing the hand forward.
 
-Forward kinematics (seed 000 sec. 4, Unity's transform hierarchy): a bone's
+Forward kinematics (Zhu & Shi, sec. 4, Unity's transform hierarchy): a bone's
 world rotation is its parent's world rotation times its local rotation, and
 its joint sits at the parent's joint plus the parent's world rotation applied
 to the bone's rest offset.
 
-The tracked arm follows seed 000 sec. 4 exactly::
+The tracked arm follows Zhu & Shi, sec. 4 exactly::
 
     upper arm world = initRotation * parent.rotation * inertialRotation
     forearm world   = parent.rotation * Euler(flex, -flex, 0)    (paper's 45 deg mounting)
@@ -67,7 +67,7 @@ class BodySettings:
     forearm_m: float = 0.27
     hand_m: float = 0.08
     side: Side = "right"  # the arm that wears the board
-    mounting: Mounting = "aligned"  # how the forearm follows the flex angle (seed 000 sec. 4)
+    mounting: Mounting = "aligned"  # how the forearm follows the flex angle (Zhu & Shi, sec. 4)
 
     def __post_init__(self) -> None:
         if self.side not in ("right", "left"):
@@ -109,7 +109,7 @@ class Wearing:
 
     ``mount`` is q_SB, the bone frame seen from the sensor (the ideal board has
     its y axis along the elbow hinge and -x forward: a quarter turn about z);
-    ``init`` is seed 000's initRotation.
+    ``init`` is Zhu & Shi's initRotation.
     """
 
     mount: Quat = (math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5))
@@ -131,7 +131,7 @@ class ArmState:
 
 
 def hinge(flex_deg: float, mounting: Mounting) -> Quat:
-    """The forearm's rotation in the upper arm's frame (seed 000 sec. 4).
+    """The forearm's rotation in the upper arm's frame (Zhu & Shi, sec. 4).
 
     ``aligned``: a single rotation about the hinge (the bone's x axis).
     ``paper45``: the paper's Unity call ``Quaternion.Euler(flex, -flex, 0)``
@@ -171,7 +171,7 @@ class Avatar:
     def forward_kinematics(self, arm: ArmPose | None = None) -> None:
         """World rotations and joint positions of every bone, parents first.
 
-        With an ``arm`` pose the tracked arm takes seed 000's chain (see
+        With an ``arm`` pose the tracked arm takes Zhu & Shi's chain (see
         :meth:`_tracked`) instead of parent * local. Scalar quaternion math
         (:mod:`tracker.fusion.qmath`): this runs once per frame. While the body
         stands as before (position, yaw and local rotations unchanged) only the
@@ -191,7 +191,7 @@ class Avatar:
             self.world_rot[bone.name] = tracked or q.mul(parent_rot, self.local[bone.name])
 
     def _tracked(self, name: str, parent_rot: Quat, arm: ArmPose) -> Quat | None:
-        """The tracked arm's world rotations (seed 000 sec. 4); None for any other bone.
+        """The tracked arm's world rotations (Zhu & Shi, sec. 4); None for any other bone.
 
         The hand follows the forearm rigidly (parent * identity), so it needs no case.
         """

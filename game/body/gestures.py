@@ -1,4 +1,4 @@
-"""The energy-ball gesture machine: arm states in, game events out (seed 000 sec. 5, Fig. 1).
+"""The energy-ball gesture machine: arm states in, game events out (Zhu & Shi, sec. 5, Fig. 1).
 
 The paper's game "implement[s] the gesture control with a state machine":
 
@@ -116,7 +116,7 @@ DOWN: Vec3 = (0.0, 0.0, -1.0)
 
 
 class GestureState(str, Enum):
-    """Where the ball is (seed 000 Fig. 1)."""
+    """Where the ball is (Zhu & Shi, Fig. 1)."""
 
     IDLE = "idle"          # ball at the shoulder
     LOADING = "loading"    # arm up, ball floating up / afloat
@@ -370,7 +370,7 @@ def extending_fast(history: Sequence[Sample], window_s: float, speed_dps: float)
 
 
 class GestureMachine:
-    """Energy-ball gestures from a stream of :class:`ArmState` (seed 000 sec. 5).
+    """Energy-ball gestures from a stream of :class:`ArmState` (Zhu & Shi, sec. 5).
 
     Feed every avatar update to :meth:`update` and act on the events it
     returns; :attr:`state`, :attr:`charge`, :attr:`progress` and

@@ -1,6 +1,6 @@
 """Per-player profiles: arm side and lengths, how the board is worn, the flex calibration.
 
-Seed 000 sec. 6 notes that every person's flex response and wearing differ;
+Sec. 6 of Zhu & Shi notes that every person's flex response and wearing differ;
 a profile keeps them per player so a calibration is done once. Profiles are
 JSON files named after the player, written atomically, in
 ``$XDG_CONFIG_HOME/energyball/players`` (``~/.config/energyball/players``).

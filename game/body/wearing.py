@@ -1,6 +1,6 @@
 """Wearing calibration: where the board sits on the arm, and where "forward" is.
 
-Seed 000 sec. 6 names the weaknesses this answers: the board worn at an
+Sec. 6 of Zhu & Shi names the weaknesses this answers: the board worn at an
 unknown angle ("wearing offset") and the heading drifting away. The paper
 only asks the player to hold the arm straight down and picks initRotation to
 match (sec. 4); here that pose also finds the arm's long axis in the sensor
@@ -99,7 +99,7 @@ def _mount_from_axes(long_axis_s: np.ndarray, x_hint_s: np.ndarray) -> np.ndarra
 
 
 def _init_for_rest(avatar: Avatar, q_down: np.ndarray, mount: np.ndarray) -> np.ndarray:
-    """initRotation that makes the avatar's arm hang at rest for this reading (seed 000 sec. 4).
+    """initRotation that makes the avatar's arm hang at rest for this reading (Zhu & Shi, sec. 4).
 
     Rest means the upper arm's world rotation equals its parent's (local
     identity): init * parent * q_down * mount = parent.

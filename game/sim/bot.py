@@ -52,6 +52,8 @@ from ..world.town import Town
 from .motion_model import SPEED_RANGE, PlayerProfile, Script, TrueLaunch
 
 CHEST_M = 1.2  # the height the bot aims at on a zombie (1.8 m tall)
+SHOULDER_M = 1.4  # about where its balls leave from
+CLOSE_M = 4.0  # a zombie this close is judged by its straight distance
 FACING_DEG = 45.0  # a target further off the body's facing is turned toward first
 NEAR_M = 6.0  # zombies within this push the fleeing bot away
 CENTRE_PULL = 0.6  # beyond this fraction of the town's half size the fleeing bot heads to the start too
@@ -198,12 +200,16 @@ class Bot:
         self.script.profile = replace(self.profile, speed=_speed(speed))
 
     def _in_sight(self, t: float, walking: list[Zombie], arena: Arena) -> list[Zombie]:
-        """The walking zombies the bot sees, each looked at again every ``LOOK_S``."""
+        """The walking zombies the bot sees and could hit (nothing in a ball's way from its shoulder
+        to the chest: a lamp post hides nothing but stops a ball), each looked at again every ``LOOK_S``."""
         p, seen, out = arena.player, self._seen, []
+        town, radius = arena.town, arena.settings.ball_radius(1.0)
         for z in walking:
             looked = seen.get(z.id)
             if looked is None or t - looked[0] >= LOOK_S:
-                looked = seen[z.id] = (t, sees(arena.town, (p.x, p.y), (z.x, z.y)))
+                clear = sees(town, (p.x, p.y), (z.x, z.y)) and sweep_sphere(
+                    town, (p.x, p.y, SHOULDER_M), (z.x, z.y, CHEST_M), radius) is None
+                looked = seen[z.id] = (t, clear)
             if looked[1]:
                 out.append(z)
         if len(seen) > 4 * len(walking) + 16:  # forget the zombies gone
@@ -213,8 +219,12 @@ class Bot:
 
     @staticmethod
     def _time_to_contact(zombie: Zombie, arena: Arena) -> float:
-        """Seconds until ``zombie`` reaches the player along its way round the obstacles."""
-        gap = arena.navigator.path_length(zombie.x, zombie.y) - arena.settings.contact_distance_m
+        """Seconds until ``zombie`` reaches the player along its way round the obstacles (within
+        ``CLOSE_M``, or where the navigator knows no way, straight: a zombie that close walks straight)."""
+        p = arena.player
+        straight = math.hypot(zombie.x - p.x, zombie.y - p.y)
+        way = straight if straight < CLOSE_M else arena.navigator.path_length(zombie.x, zombie.y)
+        gap = (way if math.isfinite(way) else straight) - arena.settings.contact_distance_m
         return max(0.0, gap) / max(zombie.speed, 1e-6)
 
     def _aim(self, zombie: Zombie, arena: Arena, shoulder: Sequence[float], ahead_s: float

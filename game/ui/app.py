@@ -441,7 +441,7 @@ def arm_input(kb: KeyboardMouse, event: pygame.event.Event) -> None:
 
 
 def held_ball(game: Game, state) -> tuple[tuple[float, float, float], str, float]:
-    """Where the ball in the hand is drawn for the gesture state (seed 000 Fig. 1)."""
+    """Where the ball in the hand is drawn for the gesture state (Zhu & Shi, Fig. 1)."""
     g = game.gestures
     kind = g.state.value
     if kind == "idle":  # at the shoulder

@@ -1,11 +1,12 @@
-"""The arena: zombies, energy balls, hits, waves and score (seed 000 sec. 5). Pure logic, no pygame.
+"""The arena: zombies, energy balls, hits, waves and score (Zhu & Shi, sec. 5). Pure logic, no pygame.
 
-Seed 000's game: "an avatar of the player arrives in an abandoned town with
+Zhu & Shi's game: "an avatar of the player arrives in an abandoned town with
 zombies surrounded"; the arm throws energy balls, and "the zombie will be
 blown to the sky if it is hit by the flying ball". Here the player also walks
 (WASD, :class:`~game.world.arena_model.Controls`) while the tracked arm aims, as
-seed 002 joins an external position source with IMU orientation (its
-OptiTrack marker position plus the 3-Space sensor orientation, sec. 2).
+the IMU and infrared hand-tracking paper joins an external position source with
+IMU orientation (its OptiTrack marker position plus the 3-Space sensor
+orientation, sec. 2).
 
 Frames and units as :mod:`game.world.arena_model`: metres, seconds, radians; x east,
 y north, z up; the player's yaw 0 faces +y and a positive yaw (or turn)
@@ -60,6 +61,8 @@ STOP_FRACTION = 0.9  # a zombie stops walking at this fraction of the contact di
 BALL_EXIT_MARGIN_M = 1.0  # a ball this far beyond the town's edge has left it (zombies come in at the edge)
 NAV_EVERY = 4  # a zombie asks the navigator for its waypoint every this many steps (30 Hz), by turns
 WAIST_M = 0.9  # the height at which a zombie's straight way to the player is tested against obstacles
+STRAIGHT_M2 = 8.0 ** 2  # within 8 m a zombie walks straight at the player when nothing is in the way
+# (farther, the navigator's waypoints: their bends cost little over a long way, a sweep a lot)
 INSIDE_TOLERANCE_M = 1e-6  # a body closer than its radius minus this to an obstacle stands inside it
 _TINY = 1e-24  # squared length (m^2) below which a segment is a point
 _PARALLEL = 1e-12  # sin^2 of the angle below which two segments count as parallel
@@ -126,7 +129,7 @@ class ArenaSettings:
       ``ball_max_flight_s`` 2.5: a ball flying longer has missed;
       ``ball_fade_s`` 0.6: a missed ball fades out over this;
       ``ball_damage`` 1: health a hit takes.
-    Blown up (a killed zombie, "blown to the sky", seed 000 sec. 5):
+    Blown up (a killed zombie, "blown to the sky", Zhu & Shi, sec. 5):
       launch velocity: straight up at ``blown_up_min_m_s`` 10 to
       ``blown_up_max_m_s`` 16 (uniform), plus the ball's direction times
       ``blown_push_m_s`` 3 * (1 + charge); spin ``spin_min`` 4 to ``spin_max``
@@ -673,8 +676,9 @@ class Arena:
                     z.velocity = (kvx, kvy, 0.0) if kvx * kvx + kvy * kvy > 1e-6 else (0.0, 0.0, 0.0)
                 x, y = z.x, z.y
                 way = z.waypoint
-                if way is None or z.id % NAV_EVERY == turn_of:  # straight at him if the way is clear
-                    clear = sweep_sphere(town, (x, y, WAIST_M), (px, py, WAIST_M), radius) is None
+                if way is None or z.id % NAV_EVERY == turn_of:  # near him, straight at him if the way is clear
+                    near = (px - x) ** 2 + (py - y) ** 2 < STRAIGHT_M2
+                    clear = near and sweep_sphere(town, (x, y, WAIST_M), (px, py, WAIST_M), radius) is None
                     way = z.waypoint = (px, py, True) if clear else nav.waypoint(x, y)
                 final = way[2]
                 dx, dy = (px - x, py - y) if final else (way[0] - x, way[1] - y)
@@ -765,8 +769,14 @@ class Arena:
                 ys[j] += uy
             xs[i], ys[i] = xi, yi
         town, radius = self.town, s.zombie_radius_m
+        near, h = town.grid.near, town.half_size_m - radius
         for z, x, y in zip(walking, xs, ys):
-            z.x, z.y = push_out(town, x, y, radius)
+            if near(x, y):  # an obstacle close by (its cell's list): out of it, along its face
+                x, y = push_out(town, x, y, radius)
+            else:  # open ground: only the town's edge holds it
+                x = -h if x < -h else h if x > h else x
+                y = -h if y < -h else h if y > h else y
+            z.x, z.y = x, y
 
     def _inside_obstacle(self, walking: list[Zombie]) -> bool:
         """Whether the player or a zombie of ``walking`` stands inside an obstacle (deeper than
@@ -774,8 +784,8 @@ class Arena:
         s, town, p = self.settings, self.town, self.player
         if inside(town, p.x, p.y, s.player_radius_m, INSIDE_TOLERANCE_M):
             return True
-        r = s.zombie_radius_m
-        return any(inside(town, z.x, z.y, r, INSIDE_TOLERANCE_M) for z in walking)
+        r, near = s.zombie_radius_m, town.grid.near
+        return any(near(z.x, z.y) and inside(town, z.x, z.y, r, INSIDE_TOLERANCE_M) for z in walking)
 
     # ------------------------------------------------------------ balls
 

@@ -1,5 +1,5 @@
 """The firmware's portable C, compiled for the host, against tracker.protocol and the
-Python complementary filter (firmware/PROTOCOL.md; seed 000 sec. 3)."""
+Python complementary filter (firmware/PROTOCOL.md; Zhu & Shi, sec. 3)."""
 
 from __future__ import annotations
 
@@ -256,7 +256,7 @@ def test_commands_change_the_state_and_answer_as_the_virtual_board(lib):
 
 
 def test_flex_rail_is_a_band_held_a_second_high_and_ten_seconds_low(lib):
-    """Seed 000's circuit outputs at most Vref = 2.5 V (512 counts): near 1023 only a broken
+    """Zhu & Shi's circuit outputs at most Vref = 2.5 V (512 counts): near 1023 only a broken
     circuit; near 0 an unplugged sensor, but also a bend past Rflex = Rf (tracker.flex)."""
     circuit = FlexCircuit()
     assert circuit.adc(circuit.volts(0.0)) <= 512  # a shorted sensor, the highest output

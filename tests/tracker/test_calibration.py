@@ -183,8 +183,8 @@ def arm_hold(angles, seconds, seed=0):
 
     The arm's rotation R(t) = exp(angles(t)); the board, ELBOW_M below the shoulder, is
     turned by MOUNT: q_WS = R MOUNT. gyr = the board's body rate (R_WS^T R_WS')^v and
-    acc = R_WS^T (p'' - g) (seed 003 sec. 2.1), both by central differences of step 1e-4 s
-    (error O(h^2 w^3), under 1e-6 here)."""
+    acc = R_WS^T (p'' - g) (Inertial Sensor Based Solution for Finger Motion Tracking, Computers 9(2):40,
+    2020, sec. 2.1), both by central differences of step 1e-4 s (error O(h^2 w^3), under 1e-6 here)."""
     h = 1e-4
     t = np.arange(round(seconds * FS)) / FS
     board = lambda x: Rotation.from_rotvec(angles(x)) * MOUNT
@@ -315,7 +315,7 @@ def test_continuous_bias_tracks_a_changed_bias_and_holds_during_motion():
     assert corrected[-1] == pytest.approx(gyr[-1] - estimator.bias)
 
 
-def test_seed002_baseline_finds_a_bias_at_rest():
+def test_threshold_baseline_finds_a_bias_at_rest():
     baseline = C.ThresholdBias()
     for g in still(np.random.default_rng(9), 0.5, BIAS)[0]:
         baseline.update(g)
@@ -324,7 +324,7 @@ def test_seed002_baseline_finds_a_bias_at_rest():
 
 
 def worst_error(rng, gyr, acc, bias):
-    """The largest bias error of the seed 002 baseline and of ContinuousBias over a run."""
+    """The largest bias error of the baseline (the IMU and infrared hand-tracking paper's) and of ContinuousBias."""
     baseline, continuous = C.ThresholdBias(bias=bias), C.ContinuousBias(bias)
     worst = np.zeros(2)
     for g, a in zip(gyr, acc):
@@ -335,8 +335,8 @@ def worst_error(rng, gyr, acc, bias):
     return worst
 
 
-def test_seed002_baseline_takes_swing_reversals_and_slow_turns_for_bias():
-    """Seed 002's weakness: slow rates while moving become bias; VQF-style rest does not."""
+def test_threshold_baseline_takes_swing_reversals_and_slow_turns_for_bias():
+    """The hand-tracking paper's weakness: slow rates while moving become bias; VQF-style rest does not."""
     rng = np.random.default_rng(10)
     baseline, continuous = worst_error(rng, *swinging(rng, 3.0, BIAS), BIAS)
     assert baseline > 1.0 * DEG and continuous == 0  # the swing's reversals pass under 6 deg/s

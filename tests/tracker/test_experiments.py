@@ -1,8 +1,9 @@
-"""The seed papers' simulation findings, stated as checks on reduced, seeded grids.
+"""The papers' simulation findings, stated as checks on reduced, seeded grids.
 
-Seed 002, sec. 4.1 (static drift): without the correction a static IMU's
-orientation drifts at the rate of its gyroscope bias; with it the error stays
-bounded. Seed 003, sec. 3 (Figure 10): with sensor offsets, integration beats
+The IMU and infrared hand-tracking paper, sec. 4.1 (static drift): without the
+correction a static IMU's orientation drifts at the rate of its gyroscope bias;
+with it the error stays bounded. Inertial Sensor Based Solution for Finger Motion Tracking
+(Computers 9(2):40, 2020), sec. 3 (Figure 10): with sensor offsets, integration beats
 gravity alone for short motions and loses for long ones, crossing over on the
 order of a second; the switching and hinge filters follow the better of the
 two; white noise hurts the switching filter more than the Madgwick-type one.
@@ -26,7 +27,7 @@ from ..unavailable import unavailable
 MINUTES = 1.0
 BIASES_DPS = (0.05, 0.1, 0.2)
 DURATIONS = (0.1, 0.3, 1.0, 3.0, 10.0, 100.0)
-# Seed 003: both filters are "only limited by the errors of the accelerometer". A zero-g
+# The finger-tracking paper: both filters are "only limited by the errors of the accelerometer". A zero-g
 # offset of up to 60 mg on each of the two in-plane axes tilts a gravity reading by up to
 # atan(sqrt(2) * 0.06) = 4.9 degrees.
 ACC_LIMIT_DEG = math.degrees(math.atan(math.sqrt(2) * sim.ACC_OFFSET_MAX / sim.STANDARD_GRAVITY))
@@ -56,7 +57,8 @@ def curves(result: dict, series: str) -> dict[str, np.ndarray]:
 
 
 def test_gravity_angle_inverts_the_specific_force_at_rest():
-    """Seed 003 sec. 2.2.2 in our axes: at rest a link at theta reads (0, g sin theta, g cos theta)."""
+    """The finger-tracking paper, sec. 2.2.2, in our axes: at rest a link at theta reads (0, g sin theta,
+    g cos theta)."""
     theta = np.radians([-170.0, -28.0, 0.0, 45.0, 90.0, 175.0])
     acc = 9.81 * np.stack([np.zeros_like(theta), np.sin(theta), np.cos(theta)], axis=-1)
     np.testing.assert_allclose(gravity_angle(acc), theta, atol=1e-12)
@@ -81,7 +83,7 @@ def test_rms_error_wraps_to_the_shorter_way_round():
     assert rms_error_deg(np.radians([350.0, -5.0]), np.zeros(2)) == pytest.approx(math.sqrt(62.5))
 
 
-# ---------------------------------------------------------------- seed 002, sec. 4.1
+# ---------------------------------------------------- the hand-tracking paper, sec. 4.1
 
 
 def test_static_drift_shape_progress_and_json(drift):
@@ -110,7 +112,7 @@ def test_without_correction_the_error_is_the_integrated_bias(drift):
 
 
 def test_with_correction_the_error_stays_bounded(drift):
-    """Correction on (seed 002, Fig. 12): under 2 degrees for every bias, inclination under 0.5."""
+    """Correction on (the hand-tracking paper, Fig. 12): under 2 degrees for every bias, inclination under 0.5."""
     result, _ = drift
     for imu in result["imus"]:
         assert imu["error_deg_on"] < 2.0
@@ -118,7 +120,7 @@ def test_with_correction_the_error_stays_bounded(drift):
         assert imu["error_deg_on"] < imu["error_deg_off"] / 2
 
 
-# ---------------------------------------------------------------- seed 003, sec. 3
+# --------------------------------------------------- the finger-tracking paper, sec. 3
 
 
 def test_finger_grasp_shape_progress_and_json(grasp):
@@ -138,8 +140,8 @@ def test_finger_grasp_is_deterministic_for_a_seed():
 
 @pytest.mark.parametrize("series", ["bias", "both"])
 def test_with_offsets_integration_wins_short_and_gravity_long_crossing_near_a_second(grasp, series):
-    """Seed 003, sec. 3: with systematic errors integration outperforms gravity observation
-    for short motions and loses for long ones, the crossover "on the order of one second".
+    """The finger-tracking paper, sec. 3: with systematic errors integration outperforms gravity
+    observation for short motions and loses for long ones, the crossover "on the order of one second".
     Checked: integration better at t_m <= 0.3 s, worse at t_m >= 3 s, the crossover
     (log-interpolated) between 0.3 and 3 s."""
     result, _ = grasp
@@ -161,8 +163,8 @@ def test_with_white_noise_alone_integration_stays_better(grasp):
 @pytest.mark.parametrize("series", sorted(SERIES))
 @pytest.mark.parametrize("name", ["switching", "hinge"])
 def test_the_filters_track_the_better_estimator(grasp, series, name):
-    """Seed 003, Figure 10: both filters follow the better of gravity and integration, "only
-    limited by the errors of the accelerometer". Checked: never more than ACC_LIMIT_DEG (4.9)
+    """The finger-tracking paper, Figure 10: both filters follow the better of gravity and integration,
+    "only limited by the errors of the accelerometer". Checked: never more than ACC_LIMIT_DEG (4.9)
     above the better one (the switching filter from 0.5 s, within its gyroscope's range),
     and, with offsets, at least 10 times better than the worse one at both ends of the range."""
     result, _ = grasp
@@ -176,8 +178,8 @@ def test_the_filters_track_the_better_estimator(grasp, series, name):
 
 
 def test_white_noise_hurts_the_switching_filter_more(grasp):
-    """Seed 003, sec. 3: "noise had a much greater influence on the simple switching algorithm";
-    the Madgwick-type filter dampens it. Checked in the white-noise series at the slowest motion
+    """The finger-tracking paper, sec. 3: "noise had a much greater influence on the simple switching
+    algorithm"; the Madgwick-type filter dampens it. Checked in the white-noise series at the slowest motion
     (100 s, both filters at their noise floor): switching passes the accelerometer noise through
     (within 10% of gravity alone) and is at least 1.5 times the hinge filter's error."""
     result, _ = grasp

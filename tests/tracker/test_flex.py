@@ -1,4 +1,4 @@
-"""The flex sensor against the circuit worked by hand (seed 000, sec. 4) and known responses."""
+"""The flex sensor against the circuit worked by hand (Zhu & Shi, sec. 4) and known responses."""
 
 import json
 import math

@@ -248,8 +248,9 @@ def test_switching_integrates_through_a_fast_disturbed_turn_and_returns_to_gravi
 
 
 def test_switching_bound_grows_at_the_gyro_error_while_integrating():
-    """Seed 003 eq. (8): in fast mode the bound grows by dt |domega| a sample; a rate at
-    full scale voids it (pi), and the next clean gravity reading is taken at once."""
+    """Inertial Sensor Based Solution for Finger Motion Tracking (Computers 9(2):40, 2020), eq. (8): in fast
+    mode the bound grows by dt |domega| a sample; a rate at full scale voids it (pi), and the next clean
+    gravity reading is taken at once."""
     q0 = random_orientations(1, seed=16)[0]
     f = make("switching")
     start_at(f, q0)

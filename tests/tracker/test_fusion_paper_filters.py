@@ -1,4 +1,5 @@
-"""The paper filters (seed 000 complementary, seed 002 gravmag) against independent truth.
+"""The paper filters (Zhu & Shi's complementary, the IMU and infrared hand-tracking paper's gravmag) against
+independent truth.
 
 Truth is built in closed form with :mod:`tracker.quat` (static attitudes, constant
 body-rate rotations ``q(t) = q0 * exp(omega t / 2)``) and errors are measured with
@@ -92,7 +93,7 @@ def test_unknown_parameter_is_refused():
 # ------------------------------------------------------------ equations from first principles
 
 
-def test_complementary_one_step_is_steps_1_to_5_of_seed_000():
+def test_complementary_one_step_is_steps_1_to_5_of_zhu_and_shi():
     """q(t+dt) = q((1 - alpha) phi, v_tilt) q(t) q_delta, evaluated here with tracker.quat."""
     rng = np.random.default_rng(1)
     for q_t in random_attitudes(20, seed=2):
@@ -107,7 +108,7 @@ def test_complementary_one_step_is_steps_1_to_5_of_seed_000():
         np.testing.assert_allclose(f.update(gyr, acc, None, DT), expected, atol=1e-12)
 
 
-def test_gravmag_integration_is_eqs_3_and_4_of_seed_002():
+def test_gravmag_integration_is_eqs_3_and_4_of_the_hand_tracking_paper():
     """q_G = exp(dt q_dot (x) q0*) (x) q0 with q_dot = 1/2 q0 (x) omega (no correction without acc)."""
     rng = np.random.default_rng(3)
     for q0 in random_attitudes(20, seed=4):
@@ -166,7 +167,7 @@ def test_the_first_accelerometer_sample_levels_the_estimate(name):
 @pytest.mark.parametrize("name, params", [("complementary", FAST_CF), ("gravmag", {"tau_acc": 1.0})])
 @pytest.mark.parametrize("attitude", list(SPECIAL) + ["random"])
 def test_static_inclination_converges_from_the_identity(name, params, attitude):
-    """The tilt correction alone (the start is set to the paper 000 q(0) = 1, already levelled)."""
+    """The tilt correction alone (the start is set to Zhu & Shi's q(0) = 1, already levelled)."""
     q_list = random_attitudes(4, seed=11) if attitude == "random" else [np.asarray(SPECIAL[attitude], float)]
     for q_true in q_list:
         truth, gyr, acc, _ = static(q_true, seconds=15.0)
@@ -210,7 +211,7 @@ def test_constant_rate_rotation_is_followed_exactly_from_the_identity(name, omeg
     """Noise-free data from q0 = 1: gyroscope integration alone gives the truth, heading too."""
     q0 = np.array([1.0, 0.0, 0.0, 0.0])
     truth, gyr, acc, _ = spinning(q0, np.radians(omega_deg), seconds=6.0)
-    if name == "complementary":  # seed 000, step 1 pairs a(t) with q(t), before the sample's rotation
+    if name == "complementary":  # Zhu & Shi, step 1 pairs a(t) with q(t), before the sample's rotation
         acc = np.vstack([quat.rotate(q0, UP_FORCE), acc[:-1]])
     q = make(name).run(gyr, acc, None, RATE)
     assert total_deg(q, truth).max() < 1e-6
@@ -262,7 +263,8 @@ def test_gravmag_heading_error_converges_to_enu_while_moving(yaw_error_deg):
 
 def test_gravmag_north_correction_leaves_the_inclination_alone():
     """m0 is the field's horizontal part, so Delta q_M turns about the vertical: a disturbed
-    magnetometer changes the heading, not the inclination (seed 002, eqs. 10-14 as used here)."""
+    magnetometer changes the heading, not the inclination (the hand-tracking paper, eqs. 10-14 as used
+    here)."""
     rng = np.random.default_rng(12)
     truth, gyr, acc, mag = spinning(random_attitudes(1, 50)[0], rng.normal(0.0, 0.7, 3), 10.0, with_mag=True)
     acc = acc + rng.normal(0.0, 0.5, acc.shape)  # so that the gravity correction has work to do
@@ -305,7 +307,7 @@ def test_gravmag_bias_removal_stops_heading_drift_without_a_magnetometer():
     q = make("gravmag").run(gyr, acc, None, RATE)
     q_cf = make("complementary").run(gyr, acc, None, RATE)
     assert total_deg(q[-1:], truth[-1:])[0] < 0.25  # the drift before the first bias: 0.25 s * 0.87 deg/s
-    assert total_deg(q_cf[-1:], truth[-1:])[0] > 20.0  # the paper 000 filter has no bias estimate
+    assert total_deg(q_cf[-1:], truth[-1:])[0] > 20.0  # Zhu & Shi's filter has no bias estimate
 
 
 # ------------------------------------------------------------ long runs, bad input

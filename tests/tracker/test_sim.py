@@ -1,4 +1,5 @@
-"""The sensor simulator against motions worked by hand, scipy's rotations and seed 003."""
+"""The sensor simulator against motions worked by hand, scipy's rotations and the finger chain of
+Inertial Sensor Based Solution for Finger Motion Tracking (Computers 9(2):40, 2020)."""
 
 import math
 
@@ -163,8 +164,8 @@ def test_an_identity_mount_changes_nothing_bit_for_bit():
     assert np.array_equal(plain.truth.p_sensors, same.truth.p_sensors)
 
 
-def test_the_finger_links_compose_as_seed_003_says():
-    # Seed 003, sec. 2.1: theta_i = phi_0 + ... + phi_i, R_i a turn by theta_i about x,
+def test_the_finger_links_compose_as_the_finger_tracking_paper_says():
+    # The finger-tracking paper, sec. 2.1: theta_i = phi_0 + ... + phi_i, R_i a turn by theta_i about x,
     # r_i = l_i (0, cos theta_i, sin theta_i), sensor k at sum_{i < i_k} r_i + alpha l_ik y_ik, and
     # its acceleration sum (w'_i x r_i - w_i^2 r_i) + w'_ik x h_k - w_ik^2 h_k.
     amp, freq = np.array([0.8, 0.6, 0.5]), np.array([2.0, 3.1, 4.3])
@@ -195,7 +196,7 @@ def test_the_finger_links_compose_as_seed_003_says():
         assert truth.acc[:, s] == pytest.approx(f, abs=1e-6)
 
 
-def test_the_grasp_motion_reaches_seed_003s_angles():
+def test_the_grasp_motion_reaches_the_finger_tracking_papers_angles():
     move, delay = 1.5, 0.2
     truth = Simulator(finger_chain(), grasp(move, delay)).truth([0.0, delay, delay + move / 3,
                                                                  delay + move, 5.0])

@@ -1,4 +1,4 @@
-"""The quaternion complementary filter of seed 000 (Zhu & Shi), sec. 3, steps 1-5.
+"""The quaternion complementary filter of Zhu & Shi, sec. 3, steps 1-5.
 
 Each sample, the gyroscope rotation ``q_delta`` is integrated (the body rate
 post-multiplies), and the estimate is tilted by a fraction ``1 - alpha`` of the
@@ -37,9 +37,9 @@ from .qmath import Quat, Vec
 
 @dataclass
 class ComplementaryParams:
-    """Settings of the seed 000 complementary filter."""
+    """Settings of Zhu & Shi's complementary filter."""
 
-    # Weight of the gyroscope per sample (seed 000, sec. 3, step 5): each update
+    # Weight of the gyroscope per sample (Zhu & Shi, sec. 3, step 5): each update
     # removes (1 - alpha) of the tilt error. Tuned over 0.95..0.9998 on the 9 BROAD
     # trials at hand (286 Hz): 0.999 is best or near it on the 6 rotation and slow
     # trials; 0.9995 is 1 degree better on the mean, carried by the 2 fast-translation
@@ -55,7 +55,7 @@ class ComplementaryState:
 
 
 class ComplementaryFilter(Filter[ComplementaryParams, ComplementaryState]):
-    """Seed 000, sec. 3: gyroscope integration with a partial tilt correction."""
+    """Zhu & Shi, sec. 3: gyroscope integration with a partial tilt correction."""
 
     name = "complementary"
     uses_magnetometer = False
@@ -75,7 +75,7 @@ class ComplementaryFilter(Filter[ComplementaryParams, ComplementaryState]):
 
 
 def tilt_correction(q: Quat, acc: Vec, fraction: float) -> Quat:
-    """``q(fraction * phi, v_tilt)`` of seed 000, sec. 3, steps 1-5.
+    """``q(fraction * phi, v_tilt)`` of Zhu & Shi, sec. 3, steps 1-5.
 
     Step 1: the accelerometer in the world frame, ``q acc q^-1``; step 2: its
     direction ``v``; step 3: ``phi = arccos(v . UP)``, computed as

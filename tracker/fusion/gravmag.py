@@ -1,4 +1,5 @@
-"""Gravity and magnetic-north correction with SLERP by stillness, after seed 002, sec. 2.2.
+"""Gravity and magnetic-north correction with SLERP by stillness, after the IMU and infrared
+hand-tracking paper, sec. 2.2.
 
 Per sample: the gyroscope bias is re-estimated at rest (eq. 2), the unbiased rate
 is integrated (eqs. 3-4) into ``q_G``, ``q_G`` is corrected once toward the
@@ -8,7 +9,7 @@ the two weighted by the "stillness" ``alpha`` (eqs. 15-16).
 
 Conventions, checked against first principles:
 
-- Seed 002 writes ``q* (x) A (x) q`` for a world vector seen in the sensor frame
+- The hand-tracking paper writes ``q* (x) A (x) q`` for a world vector seen in the sensor frame
   (eqs. 5, 10) and ``q_dot = 1/2 q (x) omega`` (eq. 3): its ``q`` maps sensor to
   world, with the Hamilton product, i.e. our ``q_WS`` as it stands. Then
   ``Delta q = H(a0 x a(q_G), |a0||a(q_G)| + a0 . a(q_G))`` (eqs. 6-8) is the
@@ -55,7 +56,7 @@ _ZERO: Vec = (0.0, 0.0, 0.0)
 
 @dataclass
 class GravMagParams:
-    """Settings of the seed 002 filter."""
+    """Settings of the hand-tracking paper's filter."""
 
     # Defaults: the best mean on the 9 BROAD trials at hand (286 Hz), 6D inclination and 9D total.
     rest_threshold: float = math.radians(1.5)  # rad/s: |omega_0| below this is "at rest" (eq. 2)
@@ -80,7 +81,7 @@ class GravMagState:
 
 
 class GravMagFilter(Filter[GravMagParams, GravMagState]):
-    """Seed 002: bias at rest, gyroscope integration, gravity and north corrections, SLERP."""
+    """The hand-tracking paper: bias at rest, gyroscope integration, gravity and north corrections, SLERP."""
 
     name = "gravmag"
     Params = GravMagParams
@@ -104,7 +105,7 @@ class GravMagFilter(Filter[GravMagParams, GravMagState]):
         return s.q
 
     def _unbiased(self, gyr: Vec, dt: float) -> Vec:
-        """``omega_B = omega_0 - b`` (seed 002, eq. 2); sets ``flags.rest``.
+        """``omega_B = omega_0 - b`` (the hand-tracking paper, eq. 2); sets ``flags.rest``.
 
         Each block of ``rest_time`` seconds with ``|omega_0| < rest_threshold``
         throughout makes the bias ``b`` the block's mean raw rate. The paper's block
@@ -139,7 +140,7 @@ class GravMagFilter(Filter[GravMagParams, GravMagState]):
 
 
 def corrected(q_g: Quat, measured: Vec, reference: Vec, gain: float) -> Quat:
-    """``q_G (x) Delta q^gain`` (seed 002, eqs. 5-9 for gravity, 10-14 for north).
+    """``q_G (x) Delta q^gain`` (the hand-tracking paper, eqs. 5-9 for gravity, 10-14 for north).
 
     The reference (``A_int`` or ``M_int``, world frame) seen from ``q_G`` is
     ``q_G* (x) ref (x) q_G`` (eqs. 5, 10); ``Delta q = H(a0 x a(q_G), |a0||a(q_G)| +

@@ -1,14 +1,15 @@
-"""Madgwick's filter with the hinge axis as second reference (seed 003, sec. 2.3).
+"""Madgwick's filter with the hinge axis as second reference (the finger-tracking paper, sec. 2.3).
 
-Seed paper 003 tracks a phalanx on a hinge whose parent (the metacarpus) is known
-from optical tracking. It keeps Madgwick's gradient-descent filter but replaces
-the magnetometer by "the normal axis of the flexion plane as the second
-correction vector" (sec. 2.3): the hinge axis. The axis is fixed in the segment
-(sec. 2.1: the x axes of all links lie along the hinge axes), so the sensor
-"measures" it as a constant direction ``a_S``, and its world direction ``a_W``
-is known from the parent. Gravity is solved by gradient descent and "the only
-possible solution is chosen, taking into account the normal to the flexion
-plane" (sec. 2.3): gravity gives the inclination, the axis the heading.
+Inertial Sensor Based Solution for Finger Motion Tracking (Computers 9(2):40,
+2020) tracks a phalanx on a hinge whose parent (the metacarpus) is known from
+optical tracking. It keeps Madgwick's gradient-descent filter but replaces the
+magnetometer by "the normal axis of the flexion plane as the second correction
+vector" (sec. 2.3): the hinge axis. The axis is fixed in the segment (sec. 2.1:
+the x axes of all links lie along the hinge axes), so the sensor "measures" it as
+a constant direction ``a_S``, and its world direction ``a_W`` is known from the
+parent. Gravity is solved by gradient descent and "the only possible solution is
+chosen, taking into account the normal to the flexion plane" (sec. 2.3): gravity
+gives the inclination, the axis the heading.
 
 The axis takes the magnetometer's place in Madgwick's MARG filter, including
 its distortion compensation (Madgwick 2010, sec. 3.4, :func:`.madgwick.heading_reference`):
@@ -16,11 +17,11 @@ the reference is ``a_S`` seen in the world through the current estimate, with
 its horizontal part turned onto the horizontal direction of ``a_W``. So the
 objective pair is
 
-    f_g = q* (0, 0, 1) q - acc/|acc|        (gravity, seed 003 eq. (11))
+    f_g = q* (0, 0, 1) q - acc/|acc|        (gravity, the finger-tracking paper, eq. (11))
     f_a = q* a_ref q - a_S                  (flexion-plane normal, heading only)
 
 both handled by :func:`.madgwick.gradient` and stepped by
-:func:`.madgwick.descend` (seed 003 eqs. (15), (18), (19)). The axis thus
+:func:`.madgwick.descend` (the finger-tracking paper, eqs. (15), (18), (19)). The axis thus
 cannot tilt the estimate when the joint is not a perfect hinge or ``a_W`` is a
 little off; it fixes the heading unless it is vertical (the paper's
 "co-directionality of the correction vectors", sec. 2.3, refused here), and,
@@ -55,7 +56,7 @@ class HingeParams(MadgwickParams):
     to test the second reference on); the heading then converges at up to about
     2 beta = 4.6 deg/s, which matters only without the fast start.
     hinge_sensor: the hinge axis in the sensor frame; default the sensor y axis, the
-    elbow hinge convention of ARCHITECTURE.md (seed 000, sec. 3).
+    elbow hinge convention of ARCHITECTURE.md (Zhu & Shi, sec. 3).
     hinge_world: the same axis in the world frame (the flexion-plane normal); default
     world x. Only its horizontal direction is used (gravity sets the inclination),
     so it must not be vertical. Neither axis needs unit length.
@@ -86,7 +87,8 @@ class Hinge(Madgwick):
         wx, wy, wz = _axis("hinge_world", self.params.hinge_world)
         horizontal = math.hypot(wx, wy)
         if horizontal < 1e-6:
-            raise ValueError("hinge_world must not be vertical: it would tell no heading (seed 003, sec. 2.3)")
+            raise ValueError("hinge_world must not be vertical: it would tell no heading "
+                             "(the finger-tracking paper, sec. 2.3)")
         self._toward = (wx / horizontal, wy / horizontal, 0.0)
 
     def _second_pair(self, q: Quat, mag: Vec | None) -> tuple[Vec, Vec]:

@@ -10,13 +10,13 @@ References:
   compensation: the reference field rebuilt from the measurement).
 - [M11] S. Madgwick, A. Harrison, R. Vaidyanathan, "Estimation of IMU and MARG
   orientation using a gradient descent algorithm", ICORR 2011 (the same filter).
-- Seed paper 003 (``/work/shared/papers/003_*.txt``), sec. 2.3, which restates the
-  filter: eq. (9) q_dot = 1/2 q (x) omega, eq. (11) the objective function,
-  eq. (18) q_dot = q_dot_omega - beta grad/|grad|, eqs. (15) and (19) the Euler
-  step and the renormalisation. (The text copy drops equation labels; seed 003's
+- Inertial Sensor Based Solution for Finger Motion Tracking (Computers 9(2):40,
+  2020; ``/work/shared/papers/003_*.txt``), sec. 2.3, which restates the filter: eq.
+  (9) q_dot = 1/2 q (x) omega, eq. (11) the objective function, eq. (18) q_dot =
+  q_dot_omega - beta grad/|grad|, eqs. (15) and (19) the Euler step and the
+  renormalisation. (The text copy drops equation labels; the finger-tracking paper's
   numbers here and in :mod:`.switching`/:mod:`.hinge` follow its own
   cross-references. [M10] is cited by section only.)
-
 Convention. Madgwick's quaternion ``S_E q`` satisfies ``v_S = q* (x) v_E (x) q``, so
 it is numerically our ``q_WS`` (``v_W = q v_S q*``); no conversion is needed.
 
@@ -73,7 +73,7 @@ ZERO_QUAT: Quat = (0.0, 0.0, 0.0, 0.0)
 
 
 def gradient(q: Quat, ref: Vec, meas: Vec) -> Quat:
-    """``J^T f`` for the objective ``f = q* ref q - meas`` ([M10] sec. 3.2; seed 003 eq. (11)).
+    """``J^T f`` for the objective ``f = q* ref q - meas`` ([M10] sec. 3.2; the finger-tracking paper, eq. (11)).
 
     ``ref`` is a unit direction in the world frame, ``meas`` the unit direction the
     sensor sees for it; both in the module docstring's closed form. The result is
@@ -98,14 +98,14 @@ def gradient(q: Quat, ref: Vec, meas: Vec) -> Quat:
 
 
 def descend(q: Quat, gyr: Vec, grad: Quat, beta: float, dt: float) -> Quat:
-    """One filter step: seed 003 eq. (18) and [M10] sec. 3.3, then eqs. (15), (19).
+    """One filter step: the finger-tracking paper, eq. (18) and [M10] sec. 3.3, then eqs. (15), (19).
 
     ``q_dot = 1/2 q (x) (0, gyr) - beta grad/|grad|`` (no correction where the
     gradient vanishes), ``q + q_dot dt``, renormalised.
     """
     w, x, y, z = q
     gx, gy, gz = gyr
-    # 1/2 q (x) (0, omega): [M10] sec. 3.1, seed 003 eq. (9)
+    # 1/2 q (x) (0, omega): [M10] sec. 3.1, the finger-tracking paper, eq. (9)
     dw = 0.5 * (-x * gx - y * gy - z * gz)
     dx = 0.5 * (w * gx + y * gz - z * gy)
     dy = 0.5 * (w * gy - x * gz + z * gx)
@@ -135,7 +135,7 @@ def heading_reference(q: Quat, meas_unit: Vec, toward: Vec) -> Vec:
 def level(q: Quat, acc: Vec) -> Quat:
     """``q`` turned by the smallest world-frame rotation that makes ``acc`` point up.
 
-    The accelerometer at rest gives the inclination only (seed 003 sec. 2.2.2: the
+    The accelerometer at rest gives the inclination only (the finger-tracking paper, sec. 2.2.2: the
     slow-motion estimate from gravity); the turn is about a horizontal axis, so
     the heading of ``q`` is kept. ``level(IDENTITY, acc)`` is the pure inclination
     estimate. The shortest arc from ``v = q acc q*`` to up is
@@ -149,7 +149,7 @@ def level(q: Quat, acc: Vec) -> Quat:
 class MadgwickParams:
     """Settings of the Madgwick filter.
 
-    beta: the gradient step in rad/s ([M10] sec. 3.3, seed 003 eq. (18)); Madgwick
+    beta: the gradient step in rad/s ([M10] sec. 3.3, the finger-tracking paper, eq. (18)); Madgwick
     relates it to the gyroscope error as ``beta = sqrt(3/4) * omega_err``. Default
     0.1, Madgwick's own, is the best 9D setting on the BROAD trials in
     ../shared/data/broad (mean total RMSE 3.65 deg over the 9 trials; 0.06: 3.83,

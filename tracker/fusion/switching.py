@@ -1,7 +1,8 @@
-"""Slow/fast switching between gravity and gyro integration (seed 003, sec. 2.2).
+"""Slow/fast switching between gravity and gyro integration (the finger-tracking paper, sec. 2.2).
 
-Seed paper 003 tracks one phalanx in its flexion plane with two estimators and
-an error-bound criterion that picks between them at every sample:
+Inertial Sensor Based Solution for Finger Motion Tracking (Computers 9(2):40, 2020)
+tracks one phalanx in its flexion plane with two estimators and an error-bound
+criterion that picks between them at every sample:
 
 - slow motion (sec. 2.2.2): the angle from the measured gravity, atan2(f3, f2);
   its error is bounded by the non-gravitational acceleration, eq. (7):
@@ -103,7 +104,8 @@ class SwitchingState:
 
 
 def gravity_error(q_int: Quat, err_int: float, gyr: Vec, acc: Vec, p: SwitchingParams) -> float:
-    """``dtheta_g = |mu~| / |g|``: seed 003 eq. (7) and sec. 2.2.5 step 2, in 3-D (module docstring)."""
+    """``dtheta_g = |mu~| / |g|``: the finger-tracking paper, eq. (7) and sec. 2.2.5 step 2, in 3-D (module
+    docstring)."""
     centripetal = p.lever * (gyr[0] * gyr[0] + gyr[1] * gyr[1] + gyr[2] * gyr[2])
     gx, gy, gz = Q.rotate_inverse(q_int, (0.0, 0.0, p.gravity))
     residual = Q.norm3((acc[0] - gx, acc[1] - gy, acc[2] - gz))

@@ -1,6 +1,7 @@
-/* Gyroscope bias at boot (the idea of seed 002, eq. 2: at rest the gyroscope's
- * mean is its offset; rest judged by the readings' spread), and the record that
- * keeps it in EEPROM, checked by a CRC, for boots when the board is moving.
+/* Gyroscope bias at boot (the idea of the IMU and infrared hand-tracking paper's
+ * eq. 2: at rest the gyroscope's mean is its offset; rest judged by the readings'
+ * spread), and the record that keeps it in EEPROM, checked by a CRC, for boots when
+ * the board is moving.
  */
 #ifndef EB_BIAS_H
 #define EB_BIAS_H

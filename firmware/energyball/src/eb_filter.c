@@ -1,4 +1,4 @@
-/* Seed 000, sec. 3: gyroscope integration with a partial tilt correction.
+/* Zhu & Shi, sec. 3: gyroscope integration with a partial tilt correction.
  *
  *   q(t+dt) = q((1 - alpha) phi, v_tilt) q(t) q_delta          (step 5)
  *

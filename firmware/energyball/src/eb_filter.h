@@ -1,4 +1,4 @@
-/* The on-board quaternion complementary filter of seed 000 (Zhu & Shi, "Motion
+/* The on-board quaternion complementary filter of Zhu & Shi ("Motion
  * Control in VR", sec. 3, steps 1-5), in float, with the same equations and
  * conventions as tracker/fusion/complementary.py (its docstring gives the
  * conversion from the paper's frames: q is q_WS, Hamilton product, world z up).

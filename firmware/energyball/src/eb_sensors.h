@@ -5,7 +5,7 @@
  * References: InvenSense "MPU-9250 Register Map and Descriptions" RM-MPU-9250A-00
  * rev. 1.6 (register numbers below, sec. 4), "MPU-9250 Product Specification"
  * PS-MPU-9250A-01 rev. 1.1, and the AK8963 datasheet (sec. 8: registers, 8.3.11
- * sensitivity adjustment). Seed 000, sec. 4: the flex circuit and eq. 3.
+ * sensitivity adjustment). Zhu & Shi, sec. 4: the flex circuit and eq. 3.
  */
 #ifndef EB_SENSORS_H
 #define EB_SENSORS_H
@@ -82,10 +82,10 @@ int16_t eb_mag_adjust(int16_t h, uint8_t asa);
  * (PROTOCOL.md sec. 4.1, product specification sec. 9.1 axis figure). */
 void eb_ak_parse(const uint8_t data[AK_READ_LEN], const uint8_t asa[3], eb_mag_t *m);
 
-/* Seed 000, eq. 3: theta = -(adc - 390) / 3 degrees (0 = straight). */
+/* Zhu & Shi, eq. 3: theta = -(adc - 390) / 3 degrees (0 = straight). */
 float eb_flex_deg(float adc);
 /* How long (s) a 10-bit flex reading must stay where it is to mean a fault; 0 where it
- * is no sign of one. Seed 000's circuit (firmware/README.md, tracker/flex.py) gives at
+ * is no sign of one. Zhu & Shi's circuit (firmware/README.md, tracker/flex.py) gives at
  * most Vref = 2.5 V (512 counts, a shorted sensor): a reading within EB_FLEX_RAIL_BAND
  * of 1023 is a broken circuit, flagged after 1 s. The low rail is where an unplugged
  * sensor drives the output, but also where a bend past Rflex = Rf = 51 kOhm takes it

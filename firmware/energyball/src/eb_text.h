@@ -1,4 +1,4 @@
-/* The paper's text stream (seed 000, sec. 4: quaternion and flex angle to the PC
+/* The paper's text stream (Zhu & Shi, sec. 4: quaternion and flex angle to the PC
  * at 9600 baud), in the line format of PROTOCOL.md sec. 10:
  *   printf("%.4f,%.4f,%.4f,%.4f,%.2f\r\n", w, x, y, z, flex_deg)
  * written without printf, whose float support costs about 1.5 KB of flash.

@@ -80,7 +80,7 @@ def test_random_poses_match_scipy_chain(seed):
     avatar = Avatar(BodySettings(), Wearing(wxyz(mount), wxyz(init)), body_yaw=0.3)
     s = avatar.update(ArmPose(wxyz(q), flex, 0.0))
     parent = Rotation.from_euler("z", 0.3)
-    upper = init * parent * q * mount  # seed 000 sec. 4
+    upper = init * parent * q * mount  # Zhu & Shi, sec. 4
     forearm = upper * Rotation.from_euler("x", flex, degrees=True)
     assert s.elbow - s.shoulder == pytest.approx(upper.apply([0, 0, -0.30]), abs=1e-12)
     assert s.wrist - s.elbow == pytest.approx(forearm.apply([0, 0, -0.27]), abs=1e-12)
