@@ -30,7 +30,9 @@ How it plays:
   Walking. When a zombie (seen or not: it hears them) would reach it within
   ``FLEE_S`` (2.5 s), it walks away from the near zombies and back toward the
   start square near the town's edge until it is a third further clear, turning
-  aside (up to 135 deg) where a wall blocks the way. It does not walk during a throw (which would swing the aim
+  aside (up to 135 deg) where a wall blocks the way. With zombies about but none
+  in sight (nor a ball's way to one), it walks back to the start square, the open
+  ground with the longest views, along the way round the obstacles. It does not walk during a throw (which would swing the aim
   off), unless a zombie is about to strike.
   Fatigue. Per minute played, its movements slow by ``fatigue_per_min`` and
   its aim noise grows by the same fraction.
@@ -47,6 +49,7 @@ import numpy as np
 from ..world.arena import Arena
 from ..world.arena_model import Controls, Player, Zombie
 from ..world.collision import sweep_sphere
+from ..world.navigation import NavSettings, Navigator
 from ..world.sight import sees
 from ..world.town import Town
 from .motion_model import SPEED_RANGE, PlayerProfile, Script, TrueLaunch
@@ -121,6 +124,7 @@ class Bot:
         self._lowered_at: float | None = None  # when the arm is back down after calibrating
         self.fleeing = False
         self._seen: dict[int, tuple[float, bool]] = {}  # zombie id: (when looked at, in sight)
+        self._home: Navigator | None = None  # the way back to the town's start square
 
     @property
     def launches(self) -> list[TrueLaunch]:
@@ -172,6 +176,8 @@ class Bot:
         self._tire(minutes)
         self.script.forget_before(t - FORGET_S)
         visible = self._in_sight(t, walking, arena)
+        if not visible and walking and not self._home_reached(arena):
+            return Action(controls=self._go_home(arena))  # back to the open square, where it sees them
         if not visible:
             self.script.wait_until(start)
             self.script.idle(float(self.rng.uniform(*IDLE_S)))
@@ -216,6 +222,20 @@ class Bot:
             ids = {z.id for z in walking}
             self._seen = {k: v for k, v in seen.items() if k in ids}
         return out
+
+    def _home_reached(self, arena: Arena) -> bool:
+        p, town = arena.player, arena.town
+        return math.hypot(p.x - town.start[0], p.y - town.start[1]) <= max(1.0, town.start_radius_m)
+
+    def _go_home(self, arena: Arena) -> Controls:
+        """Walk toward the start square along the way round the obstacles (the open ground with the
+        longest views, where zombies come into sight)."""
+        p, town = arena.player, arena.town
+        if self._home is None or self._home.town is not town:
+            self._home = Navigator(town, NavSettings(agent_radius_m=arena.settings.player_radius_m))
+            self._home.set_goal(*town.start)
+        tx, ty, _ = self._home.waypoint(p.x, p.y)
+        return _walk_toward(p, tx - p.x, ty - p.y)
 
     @staticmethod
     def _time_to_contact(zombie: Zombie, arena: Arena) -> float:
@@ -273,8 +293,17 @@ class Bot:
                 break
         else:
             wx, wy = wx / norm, wy / norm  # hemmed in: press on and slide
-        c, s = math.cos(player.yaw), math.sin(player.yaw)
-        return Controls(forward=-wx * s + wy * c, strafe=wx * c + wy * s)
+        return _walk_toward(player, wx, wy)
+
+
+def _walk_toward(player: Player, wx: float, wy: float) -> Controls:
+    """The walking input that moves the player along (wx, wy) (world frame) without turning him."""
+    norm = math.hypot(wx, wy)
+    if norm < 1e-9:
+        return Controls()
+    wx, wy = wx / norm, wy / norm
+    c, s = math.cos(player.yaw), math.sin(player.yaw)
+    return Controls(forward=-wx * s + wy * c, strafe=wx * c + wy * s)
 
 
 def _speed(speed: float) -> float:

@@ -138,3 +138,15 @@ def test_a_fleeing_bot_turns_aside_where_a_wall_blocks_its_way():
     assert near.state.value == "walking"
     assert abs(c.strafe) > 0.5  # ...but the wall is there: it goes east or west along it
     assert c.forward >= -0.75
+
+
+def test_with_zombies_about_but_none_in_sight_it_walks_back_to_the_open_square():
+    arena = _behind(Obstacle("building", 6.0, 12.0, 12.0, 18.0, 8.0))
+    arena.player.x, arena.player.y = 0.0, 10.0  # north of the start square, facing north
+    arena.add_zombie(14.0, 15.0, speed=0.5)  # behind the building: heard, not seen
+    bot = _bot()
+    bot.play_started = 0.0
+    c = bot.act(1.0, Screen("play"), arena, SHOULDER).controls
+    assert c.forward == pytest.approx(-1.0, abs=0.05) and bot.launches == []  # south, toward (0, 0)
+    arena.player.x, arena.player.y = 0.5, 0.0  # on the square: it waits for them there
+    assert bot.act(2.0, Screen("play"), arena, SHOULDER).controls == Controls()
