@@ -283,6 +283,14 @@ def _record_outputs(args: argparse.Namespace) -> None:
             raise UsageError(f"--raw {args.raw} and --csv {args.csv} name the same file: give two files")
 
 
+def _keep(samples: list[P.RawSample | P.FusedSample], table: CsvRecorder | None) -> int:
+    """Write ``samples`` to the table, if any; how many there were."""
+    if table:
+        for s in samples:
+            table.write(s)
+    return len(samples)
+
+
 def cmd_record(args: argparse.Namespace) -> int:
     _record_outputs(args)
     status = StatusLine()
@@ -298,24 +306,27 @@ def cmd_record(args: argparse.Namespace) -> int:
             raw.begin(header, P.encode_hello(link.hello) if link.hello and not legacy else b"")
             table = CsvRecorder(args.csv, link.hello) if args.csv else None
             end = _until(args.seconds)
+            samples = 0
             try:
                 try:
                     while time.monotonic() < end:
-                        for s in link.drain():
-                            if table:
-                                table.write(s)
+                        samples += _keep(link.drain(), table)
                         status.show(f"recording {args.raw}: {raw.bytes} bytes  " + _health_text(link))
                         time.sleep(0.05)
                 finally:  # what was recorded is complete: from here a signal waits until it is kept
                     ending.enter_context(signals.deferred())
-            except KeyboardInterrupt:
-                pass  # Ctrl-C, SIGTERM or SIGHUP: the usual way to end a recording (later ones are ignored)
+            except KeyboardInterrupt as stop:
+                interrupted: KeyboardInterrupt | None = stop  # the usual way to end a recording
+            else:
+                interrupted = None
             link.tap = None
         status.done()
+        samples += _keep(link.drain(), table)
+        if interrupted and not samples:  # stopped before the first sample: nothing to keep, nothing replaced
+            print(f"stopped before the first sample: nothing recorded, {args.raw} left as it was", file=sys.stderr)
+            raise interrupted
         raw.close()
         if table:
-            for s in link.drain():
-                table.write(s)
             table.close()
         rows = f", {table.rows} samples to {args.csv}" if table else ""
         print(f"recorded {raw.bytes} bytes to {args.raw}{rows}", file=sys.stderr)

@@ -12,12 +12,14 @@ from __future__ import annotations
 import json
 import os
 import signal
+import threading
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from tracker import protocol as P
 from tracker.recording import decode_file, read_csv
 
 from ..commands import SIGNALS, finish, parts, start, wait_for
@@ -91,6 +93,33 @@ def test_a_signal_in_the_handshake_leaves_nothing(tmp_path):
     finally:
         os.close(master)
         os.close(slave)
+
+
+def test_a_signal_before_the_first_sample_keeps_the_previous_recording(tmp_path):
+    """A board that says hello and then sends nothing: the recording has begun but holds no
+    sample, so a signal leaves the previous files as they were (CI caught this race once)."""
+    master, slave = os.openpty()
+    hello = P.encode(P.Hello(1, "1.0.0", 0x71, 0x48, 200, P.Mode.RAW, True, 16, 2000, P.BoardError.NONE))
+    answer = threading.Thread(target=lambda: (os.read(master, 64), os.write(master, hello)), daemon=True)
+    answer.start()
+    raw, table = tmp_path / "x.bin", tmp_path / "x.csv"
+    raw.write_bytes(b"the previous recording")
+    table.write_text("the previous table")
+    try:
+        proc = start("tracker", "record", "--port", os.ttyname(slave), "--seconds", "30",
+                     "--raw", str(raw), "--csv", str(table), home=tmp_path)
+        first_line_with(proc, "recording")
+        proc.send_signal(signal.SIGTERM)
+        r = finish(proc)
+    finally:
+        os.close(master)
+        os.close(slave)
+    assert r.returncode == 128 + signal.SIGTERM, r.stderr
+    assert_no_traceback(r)
+    assert "nothing recorded" in r.stderr
+    assert raw.read_bytes() == b"the previous recording"
+    assert table.read_text() == "the previous table"
+    assert parts(tmp_path) == []
 
 
 def test_two_quick_ctrl_c_keep_the_finished_recording(tmp_path):
