@@ -140,6 +140,33 @@ def test_a_fleeing_bot_turns_aside_where_a_wall_blocks_its_way():
     assert c.forward >= -0.75
 
 
+def test_a_cornered_bot_stands_and_throws():
+    """Walls west, east and south within a step; the zombie comes from the open north: no way
+    out but past it, so the bot throws at it instead of pressing into a wall."""
+    arena = _behind(Obstacle("wall", -1.1, -1.0, -0.8, 3.0, 2.5), Obstacle("wall", 0.8, -1.0, 1.1, 3.0, 2.5),
+                    Obstacle("wall", -1.1, -1.1, 1.1, -0.8, 2.5))
+    arena.add_zombie(0.0, 3.0, speed=1.0)  # 1.9 s from contact: the bot would flee
+    bot = _bot(aim_noise_deg=0.0, leads_targets=False)
+    bot.play_started = 0.0
+    assert bot.act(1.0, Screen("play"), arena, SHOULDER).controls == Controls()
+    assert len(bot.launches) == 1
+    x, y, _ = bot.launches[0].direction_body  # at the zombie from the shoulder (0.2 m east of it)
+    assert math.degrees(math.atan2(x, y)) == pytest.approx(math.degrees(math.atan2(-SHOULDER[0], 3.0)), abs=1.0)
+
+
+def test_a_fleeing_bot_held_in_place_by_bodies_stands_and_throws():
+    """Open ground, but the walking does not move the player (bodies in the way): after STUCK_S
+    of fleeing without moving it throws."""
+    arena = Arena(seed=1, town=OPEN)
+    arena.add_zombie(0.0, 3.0, speed=1.0)
+    bot = _bot(aim_noise_deg=0.0)
+    bot.play_started = 0.0
+    walked = [bot.act(t, Screen("play"), arena, SHOULDER) for t in np.arange(1.0, 1.95, 1 / 60)]
+    assert all(a.controls.forward == pytest.approx(-1.0) for a in walked) and bot.launches == []
+    bot.act(2.05, Screen("play"), arena, SHOULDER)  # a second on, the player has not moved
+    assert len(bot.launches) == 1
+
+
 def test_with_zombies_about_but_none_in_sight_it_walks_back_to_the_open_square():
     arena = _behind(Obstacle("building", 6.0, 12.0, 12.0, 18.0, 8.0))
     arena.player.x, arena.player.y = 0.0, 10.0  # north of the start square, facing north
