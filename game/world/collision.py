@@ -16,7 +16,8 @@ import math
 from .town import Obstacle, Town
 
 Vec3 = tuple[float, float, float]
-PASSES = 3  # push_out's rounds over the nearby obstacles (a push out of one can press into another)
+PASSES = 6  # push_out's rounds over the nearby obstacles (a push out of one can press into another)
+SKIN_M = 1e-4  # after the first round, bodies are pushed this much beyond touching (see push_out)
 
 
 def push_out(town: Town, x: float, y: float, radius: float) -> tuple[float, float]:
@@ -31,8 +32,14 @@ def push_out(town: Town, x: float, y: float, radius: float) -> tuple[float, floa
     overlaps. A centre inside a box leaves it across the nearest face; a
     walking body, pushed out every step, never gets its centre inside one
     (deep inside a row of touching buildings that face may lead into the next).
+    Wedged in a notch (a corner beside a face less than a body's width away),
+    pushes out of one and the other in turn only approach the resting place
+    (geometrically, more slowly the narrower the notch); so rounds after the
+    first push ``SKIN_M`` beyond touching, which ends the see-saw in a round
+    or two.
     """
     grid, h = town.grid, town.half_size_m - radius
+    reach, touching = radius, (radius - 1e-9) ** 2  # a rounding error's overlap is not one
     for _ in range(PASSES):
         x = -h if x < -h else h if x > h else x
         y = -h if y < -h else h if y > h else y
@@ -44,25 +51,26 @@ def push_out(town: Town, x: float, y: float, radius: float) -> tuple[float, floa
             cy = o.y0 if y < o.y0 else o.y1 if y > o.y1 else y
             dx, dy = x - cx, y - cy
             d2 = dx * dx + dy * dy
-            if d2 >= radius * radius:
+            if d2 >= touching:
                 continue
             moved = True
             if d2 > 0.0:
-                k = radius / math.sqrt(d2)
+                k = reach / math.sqrt(d2)
                 x, y = cx + dx * k, cy + dy * k
             else:  # the centre is inside: out across the nearest face
                 gaps = (x - o.x0, o.x1 - x, y - o.y0, o.y1 - y)
                 face = gaps.index(min(gaps))
                 if face == 0:
-                    x = o.x0 - radius
+                    x = o.x0 - reach
                 elif face == 1:
-                    x = o.x1 + radius
+                    x = o.x1 + reach
                 elif face == 2:
-                    y = o.y0 - radius
+                    y = o.y0 - reach
                 else:
-                    y = o.y1 + radius
+                    y = o.y1 + reach
         if not moved:
             break
+        reach = radius + SKIN_M
     return (-h if x < -h else h if x > h else x), (-h if y < -h else h if y > h else y)
 
 

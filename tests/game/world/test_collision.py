@@ -26,6 +26,11 @@ def overlap(o, x, y, radius):
     return bool(np.any((o.x0 < px) & (px < o.x1) & (o.y0 < py) & (py < o.y1)))
 
 
+def gap(o, x, y):
+    """The distance from (x, y) outside a footprint to it: to the nearest face, or corner."""
+    return math.hypot(max(o.x0 - x, 0.0, x - o.x1), max(o.y0 - y, 0.0, y - o.y1))
+
+
 # ---------------------------------------------------------------- push_out
 
 def test_a_circle_pressed_diagonally_into_a_wall_slides_and_ends_a_radius_from_the_face():
@@ -42,6 +47,22 @@ def test_a_circle_in_an_inside_corner_is_pushed_out_of_both_walls():
     south = Obstacle("wall", 0.0, 0.0, 5.0, 0.3, 2.0)
     x, y = push_out(town_of(west, south), 0.5, 0.5, R)
     assert (x, y) == pytest.approx((0.3 + R, 0.3 + R), abs=1e-12)
+
+
+def test_a_body_walking_into_a_notch_rests_there_and_never_overlaps():
+    """A building's corner 0.47 m from a ruin's face, narrower than a body (seed 106's town had
+    one): a zombie walking into it every step comes to rest touching both, never inside either.
+    The rest point, worked by hand: x = 0.47 - R against the face; then the corner (0, 0) is R away
+    at y = sqrt(R^2 - x^2)."""
+    building, ruin = Obstacle("building", -4.0, -4.0, 0.0, 0.0, 7.0), Obstacle("ruin", 0.47, -4.0, 4.0, 4.0, 3.0)
+    town = town_of(building, ruin)
+    x, y = 0.0, 1.0
+    for _ in range(400):  # 1 cm steps toward a point deep in the notch
+        d = math.hypot(0.2 - x, -3.0 - y)
+        x, y = push_out(town, x + 0.01 * (0.2 - x) / d, y + 0.01 * (-3.0 - y) / d, R)
+        assert gap(building, x, y) >= R - 1e-6 and gap(ruin, x, y) >= R - 1e-6
+    rest_x = 0.47 - R
+    assert (x, y) == pytest.approx((rest_x, math.sqrt(R * R - rest_x * rest_x)), abs=1e-3)
 
 
 def test_a_circle_at_an_outside_corner_is_pushed_away_from_the_corner():
