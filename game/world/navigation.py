@@ -40,6 +40,14 @@ follows its waypoints never touches an obstacle; pushes from the crowd
 (the arena's separation) and :func:`game.world.collision.push_out` do the
 rest. The ways bend a little at the regions' edges: round a single wall
 some 16% longer than the shortest.
+
+Lost zombies. A body fits through gaps the grid leaves closed (a 0.7 m
+body through a 1.3 m gap whose free strip spans no whole 0.5 m cell),
+and the crowd pushes zombies, or they follow the player, into pockets
+that have no way out on the grid. A zombie in a region with no way to
+the goal asks a finer navigator (cells half as wide, built the first time
+one is needed), which sees such gaps open; only where that too knows no
+way does it head straight for the goal.
 """
 
 from __future__ import annotations
@@ -108,9 +116,12 @@ class Navigator:
     region), then :meth:`waypoint` for each walking zombie.
     """
 
-    def __init__(self, town: Town, settings: NavSettings | None = None) -> None:
+    def __init__(self, town: Town, settings: NavSettings | None = None, finer: bool = True) -> None:
+        """``finer``: lost zombies ask a navigator on cells half as wide (see the module's docstring)."""
         self.town = town
         self.settings = s = settings if settings is not None else NavSettings()
+        self._finer: Navigator | None = None
+        self._has_finer = finer
         self.origin = -town.half_size_m
         self.n = max(1, math.floor(2.0 * town.half_size_m / s.cell_m))
         self._inv, self._half = 1.0 / s.cell_m, s.cell_m / 2.0
@@ -262,7 +273,7 @@ class Navigator:
         region = self.cell_region[j * n + i]
         exit_ = self._exits[region] if region >= 0 else UNREACHABLE
         if exit_ < 0:
-            return self.goal[0], self.goal[1], True
+            return self._lost(x, y) if exit_ == UNREACHABLE and self._has_finer else (self.goal[0], self.goal[1], True)
         vertical, line, lo, hi, margin, low, high = self._steer[exit_]
         if region == low:
             side, beyond_region = 1.0, high
@@ -283,6 +294,16 @@ class Navigator:
         crossing = p_along + (along - p_along) * depth / (depth + half) if depth > 0.0 else p_along
         across = line + side * half if lo < crossing < hi else line - side * half  # else first to before it
         return (across, along, False) if vertical else (along, across, False)
+
+    def _lost(self, x: float, y: float) -> tuple[float, float, bool]:
+        """The waypoint of a zombie whose region has no way to the goal: the finer navigator's."""
+        finer = self._finer
+        if finer is None:
+            s = self.settings
+            finer = self._finer = Navigator(self.town, NavSettings(s.agent_radius_m, s.cell_m / 2.0, s.region_max_m),
+                                            finer=False)
+        finer.set_goal(*self.goal)
+        return finer.waypoint(x, y)
 
     def path_length(self, x: float, y: float) -> float:
         """The length (m) of a zombie's way from (x, y) to the goal, as the flow field sees it (through the

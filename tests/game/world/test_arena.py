@@ -540,6 +540,23 @@ def test_a_zombie_walks_round_a_wall_to_the_player_and_never_into_it():
     assert closest >= r - 1e-9 and arena.obstacle_violations == 0
 
 
+def test_a_zombie_in_a_pocket_the_grid_leaves_closed_finds_the_gap_out():
+    """A walled yard open by a 1.3 m gap in its south wall (x 5.0 to 6.3): a body (0.7 m) fits,
+    but the free strip for its centre (5.35 to 5.95) spans no whole 0.5 m cell, so on the
+    navigator's grid the yard has no way out (seed 106's town had such a pocket). The zombie
+    inside walks out through the gap and round to the player, never into a wall."""
+    yard = (Obstacle("wall", 2.0, 4.0, 5.0, 4.3, 2.5), Obstacle("wall", 6.3, 4.0, 10.0, 4.3, 2.5),
+            Obstacle("wall", 2.0, 4.0, 2.3, 10.0, 2.5), Obstacle("wall", 9.7, 4.0, 10.0, 10.0, 2.5),
+            Obstacle("wall", 2.0, 9.7, 10.0, 10.0, 2.5))
+    arena = walled(*yard)
+    zombie = arena.add_zombie(4.0, 8.0, speed=1.0)
+    assert arena.navigator.path_length(zombie.x, zombie.y) == math.inf  # lost on the grid
+    for _ in range(int(30.0 / DT)):
+        arena.step()
+    assert math.hypot(zombie.x, zombie.y) == pytest.approx(0.9 * NO_WAVES.contact_distance_m, abs=0.05)
+    assert arena.obstacle_violations == 0
+
+
 def test_a_seeded_match_keeps_every_body_out_of_the_town_obstacles():
     """Two waves in a real town, the player walking about: no step has a body inside an obstacle."""
     s = ArenaSettings(first_wave_delay_s=0.5, contact_damage_per_s=0.0)
