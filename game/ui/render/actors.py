@@ -145,40 +145,42 @@ def _zombie_colour_table() -> list:
 _ZOMBIE_COLOURS = _zombie_colour_table()
 
 
-def paint_blits(surface: pygame.Surface, blits: list) -> None:
-    surface.blits(blits, doreturn=False)
+def paint_blits(surface: pygame.Surface, blits: list) -> list[pygame.Rect]:
+    """Blit a list of (sprite, position, area, flags); returns the rectangles painted."""
+    return surface.blits(blits)
 
 
-def paint_calls(surface: pygame.Surface, calls: list) -> None:
-    """Paint a list of (function, arguments) with the surface as first argument."""
+def paint_calls(surface: pygame.Surface, calls: list) -> list[pygame.Rect]:
+    """Paint a list of (function, arguments) with the surface as first argument; returns the rectangle round
+    what the calls report painting (pygame.draw's and blit's; pygame.gfxdraw reports none), or none."""
+    rects = []
     for fn, args in calls:
-        fn(surface, *args)
+        rect = fn(surface, *args)
+        if rect is not None:
+            rects.append(rect)
+    return [rects[0].unionall(rects[1:])] if rects else []
 
 
-def _paint_zombie(surface: pygame.Surface, record: tuple) -> None:
-    """One zombie from its record (see :meth:`Actors._zombie_records`)."""
+def _paint_zombie(surface: pygame.Surface, record: tuple) -> list[pygame.Rect]:
+    """One zombie from its record (see :meth:`Actors._zombie_records`); returns the rectangle painted."""
     legs, arms, (hip, neck, head, eye_l, eye_r), limb, torso, head_r, colours, eyes = record
     legs_c, body_c, arms_c, head_c, out_c = colours
     lines, line, circle = pygame.draw.lines, pygame.draw.line, pygame.draw.circle
+    rects = []
     if limb >= 7:  # near: a dark outline under each part, round joints
-        lines(surface, out_c, False, legs, limb + 3)
-        line(surface, out_c, hip, neck, torso + 3)
-        lines(surface, out_c, False, arms, limb + 3)
-        circle(surface, out_c, head, head_r + 2)
-    lines(surface, legs_c, False, legs, limb)
-    line(surface, body_c, hip, neck, torso)
-    lines(surface, arms_c, False, arms, limb)
+        rects += [lines(surface, out_c, False, legs, limb + 3), line(surface, out_c, hip, neck, torso + 3),
+                  lines(surface, out_c, False, arms, limb + 3), circle(surface, out_c, head, head_r + 2)]
+    rects += [lines(surface, legs_c, False, legs, limb), line(surface, body_c, hip, neck, torso),
+              lines(surface, arms_c, False, arms, limb)]
     if limb >= 9:
         r = limb // 2
-        circle(surface, legs_c, legs[1], r)
-        circle(surface, legs_c, legs[3], r)
-        circle(surface, arms_c, arms[0], r)
-        circle(surface, arms_c, arms[3], r)
-    circle(surface, head_c, head, head_r)
+        rects += [circle(surface, legs_c, legs[1], r), circle(surface, legs_c, legs[3], r),
+                  circle(surface, arms_c, arms[0], r), circle(surface, arms_c, arms[3], r)]
+    rects.append(circle(surface, head_c, head, head_r))
     if eyes and head_r >= 5:
         r = max(1, head_r // 4)
-        circle(surface, ZOMBIE_EYES, eye_l, r)
-        circle(surface, ZOMBIE_EYES, eye_r, r)
+        rects += [circle(surface, ZOMBIE_EYES, eye_l, r), circle(surface, ZOMBIE_EYES, eye_r, r)]
+    return [rects[0].unionall(rects[1:])]
 
 
 @dataclass

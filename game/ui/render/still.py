@@ -1,0 +1,148 @@
+"""The still camera's picture: the ground and the town's boxes painted once, used again while the camera stands still.
+
+A frame is painted far to near (the painter's algorithm, :meth:`Renderer._order
+<game.ui.render.renderer.Renderer._order>`): the ground, then before each box
+of the town the things it covers (shadows, actors, light), the box, and after
+the last box what no box covers. While the camera has not moved since the
+last frame and no box fades, the ground and the boxes look the same, so
+:class:`StillView` keeps them as one picture, with the slot (place in the
+paint order) of the last box that painted each pixel, and paints a frame
+as: the picture; then slot by slot, what goes before box ``s``, and over the
+rectangles that painted, the picture again at the pixels a box from ``s`` on
+painted last. That is the same frame pixel for pixel: at a pixel whose last
+box is ``b``, box ``b`` paints over whatever went before it, and what comes
+after it paints over box ``b``.
+
+The picture is built at the second frame from the same camera pose (one
+frame's painting of the ground and the boxes, and a comparison of each box's
+pixels), and dropped when the camera moves. It needs a 32-bit surface;
+others are painted as usual.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+import pygame
+
+COLORKEY = (255, 0, 255)  # no box is painted in this colour
+BUDGET_BYTES = 48 * 2 ** 20  # the covers kept take at most this much memory
+
+
+def paint_items(surface: pygame.Surface, items: list) -> list[pygame.Rect]:
+    """Paint (paint function, payload) items in order; returns the rectangles they painted."""
+    rects: list[pygame.Rect] = []
+    for paint, payload in items:
+        rects += paint(surface, payload)
+    return rects
+
+
+def union(rects: list[pygame.Rect], bounds: pygame.Rect) -> pygame.Rect:
+    """The rectangle round ``rects`` (those with an area), within ``bounds``; empty if there are none."""
+    rects = [r for r in rects if r.width and r.height]
+    if not rects:
+        return pygame.Rect(0, 0, 0, 0)
+    return rects[0].unionall(rects[1:]).clip(bounds)
+
+
+class StillView:
+    """The still picture and its covers (see the module's docstring) for one camera pose."""
+
+    def __init__(self, budget_bytes: int = BUDGET_BYTES) -> None:
+        self.budget_bytes = budget_bytes
+        self.key: tuple | None = None  # the last frame's camera pose and town
+        self.picture: pygame.Surface | None = None
+        self.covers: dict[int, tuple[pygame.Surface, pygame.Rect]] = {}  # slot: cover and where it goes, last used last
+        self._pixels = np.zeros((0, 0), dtype=np.uint32)  # the picture's pixels, [x, y]
+        self._last_box = np.zeros((0, 0), dtype=np.uint16)  # the slot + 1 of the last box to paint each pixel, 0: none
+        self._reach: list[pygame.Rect] = []  # for each slot, the rectangle round what the boxes from it on paint
+
+    def paint(self, surface: pygame.Surface, key: tuple | None, paint_ground: Callable[[pygame.Surface], None],
+              shadows: list, boxes: list, buckets: list) -> bool:
+        """Paint a planned frame from the still picture if the camera has not moved since the last frame.
+
+        ``key``: the camera's pose and the town (None while a box fades);
+        ``paint_ground`` paints the ground; ``shadows`` are blits on the
+        ground; ``boxes`` the boxes' (paint, payload) far to near;
+        ``buckets[s]`` what goes before box ``s`` (the last, after every box).
+        Returns False, painting nothing, when the frame must be painted as usual.
+        """
+        if key is None or key != self.key:
+            self.key, self.picture, self.covers = key, None, {}
+            return False
+        if self.picture is None:
+            self._build(surface, paint_ground, boxes)
+        slots = [s for s, items in enumerate(buckets[:-1]) if items] + ([0] if shadows else [])
+        if not self._make_covers(surface, slots):
+            return False
+        surface.blit(self.picture, (0, 0))
+        self._restore(surface, 0, surface.blits(shadows))
+        for s, items in enumerate(buckets[:-1]):
+            if items:
+                self._restore(surface, s, paint_items(surface, items))
+        paint_items(surface, buckets[-1])
+        return True
+
+    def _build(self, surface: pygame.Surface, paint_ground: Callable[[pygame.Surface], None], boxes: list) -> None:
+        """The ground and the boxes in one picture, and the last box at each pixel (each box painted alone on
+        the colour key, then copied onto the picture)."""
+        picture = pygame.Surface(surface.get_size(), 0, surface)
+        paint_ground(picture)
+        scratch = pygame.Surface(surface.get_size(), 0, surface)
+        scratch.set_colorkey(COLORKEY)
+        scratch.fill(COLORKEY)
+        key = scratch.map_rgb(COLORKEY)
+        last_box = np.zeros(surface.get_size(), dtype=np.uint16)
+        bounds = scratch.get_rect()
+        rects = []
+        for s, box in enumerate(boxes):  # gfxdraw's outlines report nothing and may round a pixel past the fill's
+            rect = union([r.inflate(4, 4) for r in paint_items(scratch, [box])], bounds)
+            rects.append(rect)
+            if not rect.width:
+                continue
+            area = (slice(rect.left, rect.right), slice(rect.top, rect.bottom))
+            last_box[area][pygame.surfarray.pixels2d(scratch)[area] != key] = s + 1
+            picture.blit(scratch, rect.topleft, rect)
+            scratch.fill(COLORKEY, rect)
+        self._reach = [union(rects[s:], bounds) for s in range(len(rects))]
+        self.picture, self._last_box = picture, last_box
+        self._pixels = pygame.surfarray.array2d(picture)
+
+    def _make_covers(self, surface: pygame.Surface, slots: list[int]) -> bool:
+        """The covers of ``slots``, kept last used last, the least lately used dropped beyond the budget; False
+        (none built) if those of ``slots`` alone would take more."""
+        budget = self.budget_bytes // surface.get_bytesize()  # in pixels
+        if sum(self._area(s) for s in set(slots)) > budget:
+            return False
+        for s in slots:
+            self.covers[s] = self.covers.pop(s) if s in self.covers else self._cover(surface, s)
+        while sum(self._area(s) for s in self.covers) > budget:
+            del self.covers[next(iter(self.covers))]
+        return True
+
+    def _area(self, slot: int) -> int:
+        """The pixels of the slot's cover: the rectangle round what the boxes from it on paint."""
+        at = self._reach[slot] if slot < len(self._reach) else None
+        return at.width * at.height if at else 0
+
+    def _cover(self, surface: pygame.Surface, slot: int) -> tuple[pygame.Surface, pygame.Rect]:
+        """Where a box from ``slot`` on painted last, the picture; elsewhere the colour key."""
+        at = self._reach[slot] if slot < len(self._reach) else pygame.Rect(0, 0, 0, 0)
+        area = (slice(at.left, at.right), slice(at.top, at.bottom))
+        cover = pygame.Surface(at.size, 0, surface)
+        if at.width and at.height:
+            key = cover.map_rgb(COLORKEY)
+            pygame.surfarray.blit_array(cover, np.where(self._last_box[area] > slot, self._pixels[area], key))
+        cover.set_colorkey(COLORKEY)
+        return cover, at
+
+    def _restore(self, surface: pygame.Surface, slot: int, rects: list[pygame.Rect]) -> None:
+        """The boxes from ``slot`` on painted back over ``rects`` (from the slot's cover)."""
+        cover, at = self.covers[slot]
+        blits = []
+        for rect in rects:
+            part = rect.clip(at)
+            if part.width and part.height:
+                blits.append((cover, part.topleft, part.move(-at.left, -at.top)))
+        surface.blits(blits, doreturn=False)
