@@ -5,18 +5,19 @@ A frame is painted far to near (the painter's algorithm, :meth:`Renderer._order
 of the town the things it covers (shadows, actors, light), the box, and after
 the last box what no box covers. While the camera has not moved since the
 last frame and no box fades, the ground and the boxes look the same, so
-:class:`StillView` keeps them as one picture, with the slot (place in the
-paint order) of the last box that painted each pixel, and paints a frame
-as: the picture; then slot by slot, what goes before box ``s``, and over the
-rectangles that painted, the picture again at the pixels a box from ``s`` on
-painted last. That is the same frame pixel for pixel: at a pixel whose last
-box is ``b``, box ``b`` paints over whatever went before it, and what comes
-after it paints over box ``b``.
+:class:`StillView` keeps them as one picture and paints a frame as: the
+picture; then slot by slot (a slot: a box's place in the paint order), what
+goes before box ``s``, and over the rectangles that painted, the boxes from
+``s`` on again, blitted from the slot's cover: the picture where a box from
+``s`` on painted last, the colour key elsewhere. That is the same frame
+pixel for pixel: at a pixel whose last box is ``b``, box ``b`` paints over
+whatever went before it, and what comes after it paints over box ``b``.
 
-The picture is built at the second frame from the same camera pose (one
-frame's painting of the ground and the boxes, and a comparison of each box's
-pixels), and dropped when the camera moves. It needs a 32-bit surface;
-others are painted as usual.
+The picture (and the last box at each pixel) is built at the second frame
+from the same camera pose, each cover when a frame first needs it; all are
+dropped when the camera moves. The covers kept take at most
+``BUDGET_BYTES``, the least lately used dropped first; a frame whose covers
+alone would take more is painted in full.
 """
 
 from __future__ import annotations
