@@ -57,6 +57,7 @@ class StillView:
         self.covers: dict[int, tuple[pygame.Surface, pygame.Rect]] = {}  # slot: cover and where it goes, last used last
         self._pixels = np.zeros((0, 0), dtype=np.uint32)  # the picture's pixels, [x, y]
         self._last_box = np.zeros((0, 0), dtype=np.uint16)  # the slot + 1 of the last box to paint each pixel, 0: none
+        self._painted: list[pygame.Rect] = []  # for each slot, the rectangle round what its box paints
         self._reach: list[pygame.Rect] = []  # for each slot, the rectangle round what the boxes from it on paint
 
     def paint(self, surface: pygame.Surface, key: tuple | None, paint_ground: Callable[[pygame.Surface], None],
@@ -106,7 +107,7 @@ class StillView:
             last_box[area][pygame.surfarray.pixels2d(scratch)[area] != key] = s + 1
             picture.blit(scratch, rect.topleft, rect)
             scratch.fill(COLORKEY, rect)
-        self._reach = [union(rects[s:], bounds) for s in range(len(rects))]
+        self._painted, self._reach = rects, [union(rects[s:], bounds) for s in range(len(rects))]
         self.picture, self._last_box = picture, last_box
         self._pixels = pygame.surfarray.array2d(picture)
 
@@ -141,9 +142,11 @@ class StillView:
     def _restore(self, surface: pygame.Surface, slot: int, rects: list[pygame.Rect]) -> None:
         """The boxes from ``slot`` on painted back over ``rects`` (from the slot's cover)."""
         cover, at = self.covers[slot]
+        boxes = self._painted[slot:]
         blits = []
         for rect in rects:
-            part = rect.clip(at)
-            if part.width and part.height:
+            hits = rect.collidelistall(boxes)  # only where the rectangle meets a box's
+            if hits:
+                part = union([rect.clip(boxes[k]) for k in hits], at)
                 blits.append((cover, part.topleft, part.move(-at.left, -at.top)))
         surface.blits(blits, doreturn=False)

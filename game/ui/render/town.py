@@ -345,7 +345,8 @@ class TownView:
         self._scratch: pygame.Surface | None = None
         self._view_key: tuple | None = None  # the camera and town the view below was worked out for
         self._view: BoxPoints | None = None
-        self._drawn: tuple = ()  # that view's paint calls, screen boxes and nearest depths
+        self._drawn: tuple = ()  # that view's paint calls, lamp lights, screen boxes, nearest depths and walls
+        self._planned: tuple = (None, TownPlan())  # the last plan, and the opacities it was made with
 
     def model_of(self, town) -> TownModel | None:
         """The town's model, built at the first frame that shows it (and again for a new town)."""
@@ -408,18 +409,23 @@ class TownView:
         self.alpha = ease(self.alpha, faded, dt)
         if not n:
             return TownPlan()
+        alpha = self.alpha[keep]
+        if not g.fresh and np.array_equal(alpha, self._planned[0]):  # nothing changed since the last frame
+            return self._planned[1]
         if not g.fresh:
             calls, lights, screen, nearest, walls = self._drawn
         else:
             calls, lights, screen, nearest, walls = self._drawn = self._draw(m, frame, g)
-        opaque = self.alpha[keep] >= 0.999
+        opaque = alpha >= 0.999
         hidden = hidden_boxes(screen, nearest, *walls, opaque).tolist()
         items = [(paint_calls, []) if out else (paint_calls, c) if a >= 0.999 else (self._paint_faded, (c, a))
-                 for c, a, out in zip(calls, self.alpha[keep].tolist(), hidden)]
+                 for c, a, out in zip(calls, alpha.tolist(), hidden)]
         shown = ~np.asarray(hidden, dtype=bool)[lights.owner]
         lit = LampLights([glow for glow, k in zip(lights.glows, shown.tolist()) if k], lights.points[shown],
                          lights.xy[shown], lights.depth[shown], lights.owner[shown])
-        return TownPlan(items, lit, m.lo[keep], m.hi[keep], screen, nearest, bool(opaque.all()))
+        plan = TownPlan(items, lit, m.lo[keep], m.hi[keep], screen, nearest, bool(opaque.all()))
+        self._planned = (alpha, plan)
+        return plan
 
     def _draw(self, m: TownModel, frame: Frame, g: BoxPoints) -> tuple:
         """The kept obstacles' paint calls, their lamps' lights, their screen boxes, the depths of their nearest
