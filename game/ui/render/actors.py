@@ -206,6 +206,7 @@ class Actors:
     """Plans the zombies, the balls and the avatar of a frame; the avatar's legs stride as it moves."""
 
     TOO_CLOSE = 2.0  # zombies nearer the camera than this (m) are not drawn: they would fill the view
+    THICK_M = 0.4  # how far a zombie's body reaches in front of its joints (m), and a margin
 
     def __init__(self, camera: Camera, sprites: SpriteCache, rng: np.random.Generator) -> None:
         self.camera = camera
@@ -265,14 +266,16 @@ class Actors:
         return np.concatenate(idx) if idx else np.zeros(0, dtype=int)
 
     def plan(self, frame: Frame, g: ActorPoints, settings) -> list:
-        """Zombies, balls, the held ball and the avatar as (depth, paint, payload, probes), in no order;
-        ``probes`` are the batch indices of the points that say what covers it (:mod:`.occlusion`)."""
-        items: list[tuple[float, object, object, list]] = []
+        """Zombies, balls, the held ball and the avatar as (depth, paint, payload, probes, extent), in no
+        order; ``probes`` are the batch indices of the points that say what covers it (:mod:`.occlusion`),
+        ``extent`` (a zombie's) the screen box round all it paints and its nearest depth, or None."""
+        items: list[tuple[float, object, object, list, list | None]] = []
         if len(g.za):
-            zdepth, records, ok = self._zombie_records(frame, g.s_zj, len(g.za), g.za[:, 7] > 0)
+            zdepth, records, ok, extents = self._zombie_records(frame, g.s_zj, len(g.za), g.za[:, 7] > 0)
             first = g.s_zj.start + ok * Z_JOINTS
             probes = np.stack([first + Z_HEAD, first + Z_HIP, first + Z_FOOTL, first + Z_FOOTR], 1).tolist()
-            items += [(d, _paint_zombie, rec, pr) for d, rec, pr in zip(zdepth.tolist(), records, probes)]
+            items += [(d, _paint_zombie, rec, pr, ext) for d, rec, pr, ext in zip(zdepth.tolist(), records, probes,
+                                                                                 extents.tolist())]
         if g.balls:
             r0, r1 = setting(settings, ("ball_radius_m",), 0.22), setting(settings, ("ball_radius_per_charge_m",), 0.1)
             radii = [r0 + r1 * float(b.charge) for b in g.balls]
@@ -282,21 +285,22 @@ class Actors:
                 j = g.s_balls.start + i
                 if frame.visible[j]:
                     items.append((float(frame.depth[j]), paint_blits,
-                                  blits + self._plan_ball(frame, j, radii[i], fades[i]), [j]))
+                                  blits + self._plan_ball(frame, j, radii[i], fades[i]), [j], None))
         held, j = g.held, g.s_held.start
         if held is not None and held.visible and (held.state in ("loading", "spinning") or held.charge > 0) \
                 and frame.visible[j]:
-            items.append((float(frame.depth[j]), paint_calls, self._plan_held(frame, held, j), [j]))
+            items.append((float(frame.depth[j]), paint_calls, self._plan_held(frame, held, j), [j], None))
         if g.parts and frame.visible[g.s_parts[2].start + 1]:  # the chest
             chest = g.s_parts[2].start + 1
             items.append((float(frame.depth[chest]), paint_calls, self._plan_avatar(frame, g.parts, g.s_parts),
-                          [chest, g.s_parts[-1].start]))  # the chest and the head
+                          [chest, g.s_parts[-1].start], None))  # the chest and the head
         return items
 
     def _zombie_records(self, frame: Frame, sl: slice, n: int, flying: np.ndarray
-                        ) -> tuple[np.ndarray, list, np.ndarray]:
-        """The zombies worth drawing (in front, not too close, on screen): their depths, paint records and
-        indices (among the ``n``).
+                        ) -> tuple[np.ndarray, list, np.ndarray, np.ndarray]:
+        """The zombies worth drawing (in front, not too close, on screen): their depths, paint records,
+        indices (among the ``n``) and extents (x0, y0, x1, y1 pixels round all a zombie paints, and the
+        depth of its nearest joint less its thickness).
 
         A record is (leg polyline, arm polyline, [hip, neck, head, eyes] pixels,
         limb width, torso width, head radius, colours, eyes shown).
@@ -309,20 +313,20 @@ class Actors:
                             & (hi[:, 0] > -20) & (lo[:, 0] < cam.width + 20)
                             & (hi[:, 1] > -20) & (lo[:, 1] < cam.height + 20))
         if not len(ok):
-            return np.zeros(0), [], ok
+            return np.zeros(0), [], ok, np.zeros((0, 5))
         d, flying = d[ok], flying[ok]
         hip = d[:, Z_HIP]
         ppm = cam.f / hip
         fog_level = (fog(hip) * (15.99 / 0.85)).astype(int) + 16 * flying
         pts = frame.ixy[sl].reshape(n, Z_JOINTS, 2)[ok]
+        limb, torso, head = (np.maximum(least, ppm * k).astype(int) for least, k in ((1, 0.11), (1, 0.22), (2, 0.13)))
         records = list(zip(pts[:, Z_LEGS].tolist(), pts[:, Z_ARMS].tolist(),
-                           pts[:, [Z_HIP, Z_NECK, Z_HEAD, Z_EYEL, Z_EYER]].tolist(),
-                           np.maximum(1, ppm * 0.11).astype(int).tolist(),
-                           np.maximum(1, ppm * 0.22).astype(int).tolist(),
-                           np.maximum(2, ppm * 0.13).astype(int).tolist(),
-                           [_ZOMBIE_COLOURS[i] for i in fog_level.tolist()],
+                           pts[:, [Z_HIP, Z_NECK, Z_HEAD, Z_EYEL, Z_EYER]].tolist(), limb.tolist(), torso.tolist(),
+                           head.tolist(), [_ZOMBIE_COLOURS[i] for i in fog_level.tolist()],
                            (d[:, Z_EYEL] < d[:, Z_HEAD]).tolist()))  # eyes nearer than the head: facing us
-        return hip, records, ok
+        pad = (np.maximum(torso, head) + 5)[:, None]  # half the widest stroke (an outline), and a margin
+        extents = np.column_stack([pts.min(axis=1) - pad, pts.max(axis=1) + pad, d.min(axis=1) - self.THICK_M])
+        return hip, records, ok, extents
 
     def _plan_trails(self, frame: Frame, sl: slice, lengths: list, radii: list, fades: list) -> list:
         """Every ball's trail as glow blits, all at once: every other point, tapering, oldest faintest."""

@@ -29,7 +29,7 @@ from .plots import Plots
 from .screens import Screens
 from .sprites import SpriteCache, TextCache
 from .still import StillView, paint_items
-from .town import TownPlan, TownView
+from .town import TownPlan, TownView, behind_walls
 from .world import Scenery, setting
 
 
@@ -159,9 +159,10 @@ class Renderer(Hud, Plots, Screens, BoardPictures):
         The boxes come far to near. Each actor goes just before the first box
         that covers one of its probe points, or after every box, and the
         actors keep their own order far to near (an actor never goes after a
-        nearer one). Each glow and flash ring of the effects, and each lamp
-        post's light (additive: their order does not matter), goes just
-        before the first box that covers its point.
+        nearer one); an actor wholly behind a wall painted after it is left
+        out (:meth:`_walled_in`). Each glow and flash ring of the effects, and
+        each lamp post's light (additive: their order does not matter), goes
+        just before the first box that covers its point.
         """
         n = len(boxes.items)
         circles, glows, at = light
@@ -179,8 +180,12 @@ class Renderer(Hud, Plots, Screens, BoardPictures):
             np.minimum.at(first, np.repeat(np.arange(len(things)), lengths), slots[:sum(lengths)])
             far_to_near = depth_order(np.array([t[0] for t in things]))
             mine = np.minimum.accumulate(first[far_to_near][::-1])[::-1]
+            slot_of = np.empty(len(things), dtype=int)
+            slot_of[far_to_near] = mine
+            out = self._walled_in(boxes, things, slot_of)
             for k, slot in zip(far_to_near.tolist(), mine.tolist()):
-                buckets[slot].append(things[k][1:3])
+                if not out[k]:
+                    buckets[slot].append(things[k][1:3])
         lit = slots[len(idx) - len(at):]  # the effects' points, then the lamps'
         rings = len(circles)
         for slot in np.unique(lit).tolist():
@@ -188,6 +193,23 @@ class Renderer(Hud, Plots, Screens, BoardPictures):
             buckets[slot] += [(paint_calls, [c for c, keep in zip(circles, here) if keep]),
                               (paint_blits, [g for g, keep in zip(glows, here[rings:]) if keep])]
         return buckets
+
+    @staticmethod
+    def _walled_in(boxes: TownPlan, things: list, slot_of: np.ndarray) -> list[bool]:
+        """Which actors need no painting: those with an extent (screen box and nearest depth) inside a wall's
+        rectangle (2 px in from it: the fill's rounding), wholly behind the wall, whose box is painted after
+        them (its slot not before theirs): the wall paints over every pixel of theirs."""
+        out = [False] * len(things)
+        rects, far, owner = boxes.walls
+        with_extent = [k for k, t in enumerate(things) if t[4] is not None]
+        if not len(rects) or not with_extent:
+            return out
+        extent = np.array([things[k][4] for k in with_extent], dtype=float)
+        behind = behind_walls(extent[:, :4], extent[:, 4], rects + (2.0, 2.0, -2.0, -2.0), far)
+        hidden = (behind & (owner[None, :] >= slot_of[with_extent][:, None])).any(axis=1)
+        for k, h in zip(with_extent, hidden.tolist()):
+            out[k] = h
+        return out
 
     def _paint(self, surface: pygame.Surface, plan: _Plan) -> None:
         """Paint a planned frame: ground, shadows, then boxes, actors and light far to near (from the still

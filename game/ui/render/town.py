@@ -132,17 +132,22 @@ def ground_lines(town) -> tuple[np.ndarray, np.ndarray, list[Colour]]:
 # ------------------------------------------------------------------ the boxes
 
 
+def behind_walls(screen: np.ndarray, nearest: np.ndarray, rects: np.ndarray, far: np.ndarray) -> np.ndarray:
+    """(N, W) bools: whether each thing's screen box (x0, y0, x1, y1, N of them) lies inside each wall's
+    rectangle (W of them) with the wall's farthest corner nearer than the thing's ``nearest`` depth."""
+    inside = ((rects[None, :, 0] <= screen[:, None, 0]) & (rects[None, :, 1] <= screen[:, None, 1])
+              & (rects[None, :, 2] >= screen[:, None, 2]) & (rects[None, :, 3] >= screen[:, None, 3]))
+    return inside & (far[None, :] < nearest[:, None])
+
+
 def hidden_boxes(screen: np.ndarray, nearest: np.ndarray, rects: np.ndarray, far: np.ndarray, owner: np.ndarray,
                  opaque: np.ndarray) -> np.ndarray:
     """Which boxes need no painting: those whose screen box (x0, y0, x1, y1) lies inside the rectangle of
     a wall of another, opaque box whose farthest corner is nearer than their nearest one."""
     if not len(rects):
         return np.zeros(len(screen), dtype=bool)
-    inside = ((rects[None, :, 0] <= screen[:, None, 0]) & (rects[None, :, 1] <= screen[:, None, 1])
-              & (rects[None, :, 2] >= screen[:, None, 2]) & (rects[None, :, 3] >= screen[:, None, 3]))
-    before = far[None, :] < nearest[:, None]
     other = owner[None, :] != np.arange(len(screen))[:, None]
-    return (inside & before & other & opaque[owner][None, :]).any(axis=1)
+    return (behind_walls(screen, nearest, rects, far) & other & opaque[owner][None, :]).any(axis=1)
 
 
 
@@ -330,6 +335,7 @@ class TownPlan:
     screen: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))  # x0, y0, x1, y1 pixels
     nearest: np.ndarray = field(default_factory=lambda: np.zeros(0))  # the least depth of any corner
     opaque: bool = True  # no box is fading: each is painted whole
+    walls: tuple = (np.zeros((0, 4)), np.zeros(0), np.zeros(0, dtype=int))  # the painted opaque walls (_walls)
 
 
 class TownView:
@@ -423,7 +429,9 @@ class TownView:
         shown = ~np.asarray(hidden, dtype=bool)[lights.owner]
         lit = LampLights([glow for glow, k in zip(lights.glows, shown.tolist()) if k], lights.points[shown],
                          lights.xy[shown], lights.depth[shown], lights.owner[shown])
-        plan = TownPlan(items, lit, m.lo[keep], m.hi[keep], screen, nearest, bool(opaque.all()))
+        solid = (opaque & ~np.asarray(hidden, dtype=bool))[walls[2]]
+        plan = TownPlan(items, lit, m.lo[keep], m.hi[keep], screen, nearest, bool(opaque.all()),
+                        tuple(w[solid] for w in walls))
         self._planned = (alpha, plan)
         return plan
 
