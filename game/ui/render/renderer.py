@@ -168,8 +168,8 @@ class Renderer(Hud, Plots, Screens, BoardPictures):
         circles, glows, at = light
         lamps = boxes.lights
         glows = glows + lamps.glows
-        probes = [np.asarray(t[3], dtype=int) for t in things]
-        idx = np.concatenate(probes + [np.asarray(at, dtype=int)])
+        probes = [t[3] for t in things]
+        idx = np.concatenate([np.array([i for p in probes for i in p], dtype=int), np.asarray(at, dtype=int)])
         slots = self.town.cover_slots(boxes, self.camera.eye, np.concatenate([points[idx], lamps.points]),
                                       np.concatenate([frame.xy[idx], lamps.xy]),
                                       np.concatenate([frame.depth[idx], lamps.depth]))
@@ -186,12 +186,13 @@ class Renderer(Hud, Plots, Screens, BoardPictures):
             for k, slot in zip(far_to_near.tolist(), mine.tolist()):
                 if not out[k]:
                     buckets[slot].append(things[k][1:3])
-        lit = slots[len(idx) - len(at):]  # the effects' points, then the lamps'
-        rings = len(circles)
-        for slot in np.unique(lit).tolist():
-            here = (lit == slot).tolist()
-            buckets[slot] += [(paint_calls, [c for c, keep in zip(circles, here) if keep]),
-                              (paint_blits, [g for g, keep in zip(glows, here[rings:]) if keep])]
+        lit = slots[len(idx) - len(at):].tolist()  # the effects' points (rings, then glows), then the lamps'
+        for paint, light_items, at_slots in ((paint_calls, circles, lit), (paint_blits, glows, lit[len(circles):])):
+            by_slot: dict[int, list] = {}
+            for item, slot in zip(light_items, at_slots):
+                by_slot.setdefault(slot, []).append(item)
+            for slot, payload in by_slot.items():
+                buckets[slot].append((paint, payload))
         return buckets
 
     @staticmethod
