@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 import pygame
 
 from .palette import (MAP_BALL, MAP_BORDER, MAP_LOTS, MAP_OBSTACLE, MAP_OPEN, MAP_PLAYER, MAP_ZOMBIE, OUTLINE,
@@ -26,17 +25,10 @@ def map_rect(size: tuple[int, int]) -> pygame.Rect:
     return pygame.Rect(w - 16 - side, 16 + max(14, h // 34), side, side)
 
 
-def to_map(rect: pygame.Rect, half_size_m: float, x, y) -> np.ndarray:
-    """The minimap pixels (N, 2) of the world points (x, y) (N each): x east to the right, y north up."""
+def to_map(rect: pygame.Rect, half_size_m: float, x: float, y: float) -> tuple[int, int]:
+    """The minimap pixel of the world point (x, y): x east to the right, y north up."""
     scale = rect.width / (2.0 * half_size_m)
-    return np.column_stack([rect.left + (np.asarray(x, dtype=float) + half_size_m) * scale,
-                            rect.top + (half_size_m - np.asarray(y, dtype=float)) * scale]).astype(int)
-
-
-def to_map_point(rect: pygame.Rect, half_size_m: float, x: float, y: float) -> tuple[int, int]:
-    """The minimap pixel of one world point (:func:`to_map`)."""
-    px, py = to_map(rect, half_size_m, [x], [y])[0].tolist()
-    return px, py
+    return int(rect.left + (x + half_size_m) * scale), int(rect.top + (half_size_m - y) * scale)
 
 
 class Minimap:
@@ -58,13 +50,13 @@ class Minimap:
         clip = surface.get_clip()
         surface.set_clip(rect)
         dot = max(2, rect.width // 64)
-        at = np.array([(z.x, z.y) for z in arena.zombies if z.state != "gone"]).reshape(-1, 2)
-        for x, y in to_map(rect, h, at[:, 0], at[:, 1]).tolist():
-            circle(surface, MAP_ZOMBIE, (x, y), dot)
+        for z in arena.zombies:
+            if z.state != "gone":
+                circle(surface, MAP_ZOMBIE, to_map(rect, h, z.x, z.y), dot)
         for b in getattr(arena, "balls", ()):
-            circle(surface, MAP_BALL, to_map_point(rect, h, b.position[0], b.position[1]), max(1, dot - 1))
+            circle(surface, MAP_BALL, to_map(rect, h, b.position[0], b.position[1]), max(1, dot - 1))
         p = arena.player
-        self._arrow(surface, to_map_point(rect, h, p.x, p.y), p.yaw, max(5, rect.width // 22))
+        self._arrow(surface, to_map(rect, h, p.x, p.y), p.yaw, max(5, rect.width // 22))
         surface.set_clip(clip)
 
     @staticmethod
@@ -101,6 +93,6 @@ class Minimap:
 
     @staticmethod
     def _fill(picture: pygame.Surface, rect: pygame.Rect, h: float, box, colour: Colour) -> None:
-        x0, y0 = to_map_point(rect, h, box.x0, box.y1)  # the top left corner: west and north
-        x1, y1 = to_map_point(rect, h, box.x1, box.y0)
+        x0, y0 = to_map(rect, h, box.x0, box.y1)  # the top left corner: west and north
+        x1, y1 = to_map(rect, h, box.x1, box.y0)
         pygame.draw.rect(picture, colour, pygame.Rect(x0, y0, max(1, x1 - x0), max(1, y1 - y0)))
