@@ -143,10 +143,11 @@ class StillView:
         """The boxes from ``slot`` on painted back over ``rects`` (from the slot's cover)."""
         cover, at = self.covers[slot]
         boxes = self._painted[slot:]
+        x, y = at.topleft
         blits = []
         for rect in rects:
             hits = rect.collidelistall(boxes)  # only where the rectangle meets a box's
             if hits:
-                part = union([rect.clip(boxes[k]) for k in hits], at)
-                blits.append((cover, part.topleft, part.move(-at.left, -at.top)))
+                part = rect.clip(boxes[hits[0]]) if len(hits) == 1 else union([rect.clip(boxes[k]) for k in hits], at)
+                blits.append((cover, part.topleft, part.move(-x, -y)))
         surface.blits(blits, doreturn=False)
