@@ -79,7 +79,8 @@ class StillView:
         if not self._make_covers(surface, slots):
             return False
         surface.blit(self.picture, (0, 0))
-        self._restore(surface, 0, surface.blits(shadows))
+        if shadows:
+            self._restore(surface, 0, surface.blits(shadows))
         for s, items in enumerate(buckets[:-1]):
             if items:
                 self._restore(surface, s, paint_items(surface, items))

@@ -72,3 +72,16 @@ def test_a_moving_camera_keeps_no_picture(screen):
     r = Renderer((1280, 720), seed=4)
     frames(r, arena, avatar, [(0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0), (0.3, 0.0, 0.0, 0.05), (0.6, 0.0, 0.0, 0.05)])
     assert r.still.picture is None and not r.still.covers
+
+
+def test_the_backdrop_from_the_still_picture_equals_the_backdrop_painted_in_full(screen):
+    shown = []
+    for still in (True, False):
+        arena, _ = street_scene()
+        r = Renderer((1280, 720), seed=4)
+        r = r if still else in_full(r)
+        for _ in range(3):  # no actors, no shadows: the picture alone from the second frame on
+            r.draw_backdrop(screen, arena)
+        shown.append(pygame.image.tobytes(screen, "RGB"))
+        assert (r.still.picture is not None) == still
+    assert shown[0] == shown[1]
