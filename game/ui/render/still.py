@@ -17,7 +17,8 @@ The picture (and the last box at each pixel) is built at the second frame
 from the same camera pose, each cover when a frame first needs it; all are
 dropped when the camera moves. The covers kept take at most
 ``BUDGET_BYTES``, the least lately used dropped first; a frame whose covers
-alone would take more is painted in full.
+alone would take more is painted in full, as is every frame on a surface
+other than 32-bit.
 """
 
 from __future__ import annotations
@@ -70,7 +71,7 @@ class StillView:
         ``buckets[s]`` what goes before box ``s`` (the last, after every box).
         Returns False, painting nothing, when the frame must be painted as usual.
         """
-        if key is None or key != self.key:
+        if key is None or key != self.key or surface.get_bytesize() != 4:  # the picture is built with 32-bit pixels
             self.key, self.picture, self.covers = key, None, {}
             return False
         if self.picture is None:
