@@ -147,7 +147,7 @@ _ZOMBIE_COLOURS = _zombie_colour_table()
 
 def paint_blits(surface: pygame.Surface, blits: list) -> list[pygame.Rect]:
     """Blit a list of (sprite, position, area, flags); returns the rectangles painted."""
-    return surface.blits(blits)
+    return surface.blits(blits) or []
 
 
 def paint_calls(surface: pygame.Surface, calls: list) -> list[pygame.Rect]:

@@ -74,23 +74,23 @@ class StillView:
         if key is None or key != self.key or surface.get_bytesize() != 4:  # the picture is built with 32-bit pixels
             self.key, self.picture, self.covers = key, None, {}
             return False
-        if self.picture is None:
-            self._build(surface, paint_ground, boxes)
+        picture = self.picture or self._build(surface, paint_ground, boxes)
         slots = [s for s, items in enumerate(buckets[:-1]) if items] + ([0] if shadows else [])
         if not self._make_covers(surface, slots):
             return False
-        surface.blit(self.picture, (0, 0))
+        surface.blit(picture, (0, 0))
         if shadows:
-            self._restore(surface, 0, surface.blits(shadows))
+            self._restore(surface, 0, surface.blits(shadows) or [])
         for s, items in enumerate(buckets[:-1]):
             if items:
                 self._restore(surface, s, paint_items(surface, items))
         paint_items(surface, buckets[-1])
         return True
 
-    def _build(self, surface: pygame.Surface, paint_ground: Callable[[pygame.Surface], None], boxes: list) -> None:
-        """The ground and the boxes in one picture, and the last box at each pixel (each box painted alone on
-        the colour key, then copied onto the picture)."""
+    def _build(self, surface: pygame.Surface, paint_ground: Callable[[pygame.Surface], None],
+               boxes: list) -> pygame.Surface:
+        """The ground and the boxes in one picture (returned and kept), and the last box at each pixel (each box
+        painted alone on the colour key, then copied onto the picture)."""
         picture = pygame.Surface(surface.get_size(), 0, surface)
         paint_ground(picture)
         scratch = pygame.Surface(surface.get_size(), 0, surface)
@@ -112,6 +112,7 @@ class StillView:
         self._painted, self._reach = rects, [union(rects[s:], bounds) for s in range(len(rects))]
         self.picture, self._last_box = picture, last_box
         self._pixels = pygame.surfarray.array2d(picture)
+        return picture
 
     def _make_covers(self, surface: pygame.Surface, slots: list[int]) -> bool:
         """The covers of ``slots``, kept last used last, the least lately used dropped beyond the budget; False
