@@ -19,11 +19,13 @@ from .test_town_view import town_arena  # noqa: E402
 
 
 def street_scene():
-    """Boxes ahead with zombies behind, beside and between them, one in the air, a lamp post, a hit's sparks."""
+    """Boxes ahead with zombies behind, beside and between them (one near, drawn outlined, behind a low
+    wall), one in the air, a lamp post, a hit's sparks."""
     obstacles = [Obstacle("building", -3.0, 8.0, 3.0, 12.0, 8.0), Obstacle("car", 3.5, 5.0, 8.0, 6.8, 1.4),
                  Obstacle("ruin", -9.0, 6.0, -5.0, 10.0, 3.0), Obstacle("lamp_post", 2.6, 3.2, 2.9, 3.5, 5.0),
-                 Obstacle("wall", -4.0, 14.0, 4.0, 14.4, 2.2)]
-    spots = [(0.5, 13.0), (2.8, 12.5), (5.0, 7.5), (-7.0, 11.0), (6.0, 4.0), (-1.5, 6.0), (0.0, 15.5), (-4.2, 9.0)]
+                 Obstacle("wall", -4.0, 14.0, 4.0, 14.4, 2.2), Obstacle("wall", 0.8, 1.4, 2.6, 1.7, 1.0)]
+    spots = [(0.5, 13.0), (2.8, 12.5), (5.0, 7.5), (-7.0, 11.0), (6.0, 4.0), (-1.5, 6.0), (0.0, 15.5), (-4.2, 9.0),
+             (1.6, 2.4)]
     zombies = [Zombie(id=k, x=x, y=y, speed=1.0, health=1, phase=0.7 * k, heading=-math.pi / 2)
                for k, (x, y) in enumerate(spots)]
     zombies[3].state, zombies[3].z = ZombieState.FLYING, 3.0
