@@ -162,31 +162,25 @@ def paint_calls(surface: pygame.Surface, calls: list) -> list[pygame.Rect]:
 
 
 def _paint_zombie(surface: pygame.Surface, record: tuple) -> list[pygame.Rect]:
-    """One zombie from its record (see :meth:`Actors._zombie_records`); returns its screen box (round all it
-    paints)."""
-    legs, arms, (hip, neck, head, eye_l, eye_r), limb, torso, head_r, colours, eyes, box = record
+    """One zombie from its record (see :meth:`Actors._zombie_records`); returns the rectangle painted."""
+    legs, arms, (hip, neck, head, eye_l, eye_r), limb, torso, head_r, colours, eyes = record
     legs_c, body_c, arms_c, head_c, out_c = colours
     lines, line, circle = pygame.draw.lines, pygame.draw.line, pygame.draw.circle
+    rects = []
     if limb >= 7:  # near: a dark outline under each part, round joints
-        lines(surface, out_c, False, legs, limb + 3)
-        line(surface, out_c, hip, neck, torso + 3)
-        lines(surface, out_c, False, arms, limb + 3)
-        circle(surface, out_c, head, head_r + 2)
-    lines(surface, legs_c, False, legs, limb)
-    line(surface, body_c, hip, neck, torso)
-    lines(surface, arms_c, False, arms, limb)
+        rects += [lines(surface, out_c, False, legs, limb + 3), line(surface, out_c, hip, neck, torso + 3),
+                  lines(surface, out_c, False, arms, limb + 3), circle(surface, out_c, head, head_r + 2)]
+    rects += [lines(surface, legs_c, False, legs, limb), line(surface, body_c, hip, neck, torso),
+              lines(surface, arms_c, False, arms, limb)]
     if limb >= 9:
         r = limb // 2
-        circle(surface, legs_c, legs[1], r)
-        circle(surface, legs_c, legs[3], r)
-        circle(surface, arms_c, arms[0], r)
-        circle(surface, arms_c, arms[3], r)
-    circle(surface, head_c, head, head_r)
+        rects += [circle(surface, legs_c, legs[1], r), circle(surface, legs_c, legs[3], r),
+                  circle(surface, arms_c, arms[0], r), circle(surface, arms_c, arms[3], r)]
+    rects.append(circle(surface, head_c, head, head_r))
     if eyes and head_r >= 5:
         r = max(1, head_r // 4)
-        circle(surface, ZOMBIE_EYES, eye_l, r)
-        circle(surface, ZOMBIE_EYES, eye_r, r)
-    return [pygame.Rect(box)]
+        rects += [circle(surface, ZOMBIE_EYES, eye_l, r), circle(surface, ZOMBIE_EYES, eye_r, r)]
+    return [rects[0].unionall(rects[1:])]
 
 
 @dataclass
@@ -309,8 +303,7 @@ class Actors:
         depth of its nearest joint less its thickness).
 
         A record is (leg polyline, arm polyline, [hip, neck, head, eyes] pixels,
-        limb width, torso width, head radius, colours, eyes shown, screen box
-        (x, y, width, height) round all it paints).
+        limb width, torso width, head radius, colours, eyes shown).
         """
         cam = self.camera
         d = frame.depth[sl].reshape(n, Z_JOINTS)
@@ -327,14 +320,13 @@ class Actors:
         fog_level = (fog(hip) * (15.99 / 0.85)).astype(int) + 16 * flying
         pts = frame.ixy[sl].reshape(n, Z_JOINTS, 2)[ok]
         limb, torso, head = (np.maximum(least, ppm * k).astype(int) for least, k in ((1, 0.11), (1, 0.22), (2, 0.13)))
-        pad = (np.maximum(torso, head) + 5)[:, None]  # half the widest stroke (an outline), and a margin
-        lo, hi = pts.min(axis=1) - pad, pts.max(axis=1) + pad
         records = list(zip(pts[:, Z_LEGS].tolist(), pts[:, Z_ARMS].tolist(),
                            pts[:, [Z_HIP, Z_NECK, Z_HEAD, Z_EYEL, Z_EYER]].tolist(), limb.tolist(), torso.tolist(),
                            head.tolist(), [_ZOMBIE_COLOURS[i] for i in fog_level.tolist()],
-                           (d[:, Z_EYEL] < d[:, Z_HEAD]).tolist(),  # eyes nearer than the head: facing us
-                           np.hstack([lo, hi - lo + 1]).tolist()))
-        return hip, records, ok, np.column_stack([lo, hi, d.min(axis=1) - self.THICK_M])
+                           (d[:, Z_EYEL] < d[:, Z_HEAD]).tolist()))  # eyes nearer than the head: facing us
+        pad = (np.maximum(torso, head) + 5)[:, None]  # half the widest stroke (an outline), and a margin
+        extents = np.column_stack([pts.min(axis=1) - pad, pts.max(axis=1) + pad, d.min(axis=1) - self.THICK_M])
+        return hip, records, ok, extents
 
     def _plan_trails(self, frame: Frame, sl: slice, lengths: list, radii: list, fades: list) -> list:
         """Every ball's trail as glow blits, all at once: every other point, tapering, oldest faintest."""
