@@ -8,24 +8,25 @@ last frame and no box fades, the ground and the boxes look the same, so
 :class:`StillView` keeps them as one picture and paints a frame as: the
 picture; then slot by slot (a slot: a box's place in the paint order), what
 goes before box ``s``, and over the rectangles that painted, the boxes from
-``s`` on again, blitted from the slot's cover: the picture where a box from
-``s`` on painted last, the colour key elsewhere. That is the same frame
-pixel for pixel: at a pixel whose last box is ``b``, box ``b`` paints over
-whatever went before it, and what comes after it paints over box ``b``.
+``s`` on again, blitted from the slot's cover: those boxes alone, painted in
+order on a colour key. That is the same frame pixel for pixel: at a pixel
+whose last box is ``b``, box ``b`` paints over whatever went before it (in
+the picture and in every cover up to its slot), and what comes after it
+paints over box ``b``.
 
-The picture (and the last box at each pixel) is built at the second frame
-from the same camera pose, each cover when a frame first needs it; all are
-dropped when the camera moves. The covers kept take at most
-``BUDGET_BYTES``, the least lately used dropped first; a frame whose covers
-alone would take more is painted in full, as is every frame on a surface
-other than 32-bit.
+The picture is built at the second frame from the same camera pose (one
+painting of the ground and the boxes), each cover when a frame first needs
+it (the boxes up to the next cover built, then that cover; one a frame, the
+frame painted in full while any it needs is missing); all are dropped
+when the camera moves. The covers kept take at most ``BUDGET_BYTES``, the
+least lately used dropped first; a frame whose covers alone would take more
+is painted in full.
 """
 
 from __future__ import annotations
 
 from typing import Callable
 
-import numpy as np
 import pygame
 
 COLORKEY = (255, 0, 255)  # no box is painted in this colour
@@ -56,10 +57,10 @@ class StillView:
         self.key: tuple | None = None  # the last frame's camera pose and town
         self.picture: pygame.Surface | None = None
         self.covers: dict[int, tuple[pygame.Surface, pygame.Rect]] = {}  # slot: cover and where it goes, last used last
-        self._pixels = np.zeros((0, 0), dtype=np.uint32)  # the picture's pixels, [x, y]
-        self._last_box = np.zeros((0, 0), dtype=np.uint16)  # the slot + 1 of the last box to paint each pixel, 0: none
+        self._boxes: list = []  # the boxes' paint items, far to near
         self._painted: list[pygame.Rect] = []  # for each slot, the rectangle round what its box paints
         self._reach: list[pygame.Rect] = []  # for each slot, the rectangle round what the boxes from it on paint
+        self._scratch: pygame.Surface | None = None  # where covers are painted
 
     def paint(self, surface: pygame.Surface, key: tuple | None, paint_ground: Callable[[pygame.Surface], None],
               shadows: list, boxes: list, buckets: list) -> bool:
@@ -71,7 +72,7 @@ class StillView:
         ``buckets[s]`` what goes before box ``s`` (the last, after every box).
         Returns False, painting nothing, when the frame must be painted as usual.
         """
-        if key is None or key != self.key or surface.get_bytesize() != 4:  # the picture is built with 32-bit pixels
+        if key is None or key != self.key:
             self.key, self.picture, self.covers = key, None, {}
             return False
         picture = self.picture or self._build(surface, paint_ground, boxes)
@@ -89,39 +90,32 @@ class StillView:
 
     def _build(self, surface: pygame.Surface, paint_ground: Callable[[pygame.Surface], None],
                boxes: list) -> pygame.Surface:
-        """The ground and the boxes in one picture (returned and kept), and the last box at each pixel (each box
-        painted alone on the colour key, then copied onto the picture)."""
+        """The ground and the boxes in one picture (returned and kept), and where each box paints."""
         picture = pygame.Surface(surface.get_size(), 0, surface)
         paint_ground(picture)
-        scratch = pygame.Surface(surface.get_size(), 0, surface)
-        scratch.set_colorkey(COLORKEY)
-        scratch.fill(COLORKEY)
-        key = scratch.map_rgb(COLORKEY)
-        last_box = np.zeros(surface.get_size(), dtype=np.uint16)
-        bounds = scratch.get_rect()
-        rects = []
-        for s, box in enumerate(boxes):  # gfxdraw's outlines report nothing and may round a pixel past the fill's
-            rect = union([r.inflate(4, 4) for r in paint_items(scratch, [box])], bounds)
-            rects.append(rect)
-            if not rect.width:
-                continue
-            area = (slice(rect.left, rect.right), slice(rect.top, rect.bottom))
-            last_box[area][pygame.surfarray.pixels2d(scratch)[area] != key] = s + 1
-            picture.blit(scratch, rect.topleft, rect)
-            scratch.fill(COLORKEY, rect)
-        self._painted, self._reach = rects, [union(rects[s:], bounds) for s in range(len(rects))]
-        self.picture, self._last_box = picture, last_box
-        self._pixels = pygame.surfarray.array2d(picture)
+        bounds = picture.get_rect()
+        # gfxdraw's outlines report nothing and may round a pixel past the fill's
+        rects = [union([r.inflate(4, 4) for r in paint_items(picture, [box])], bounds) for box in boxes]
+        self._boxes, self._painted = boxes, rects
+        self._reach = [union(rects[s:], bounds) for s in range(len(rects))]
+        self.picture = picture
         return picture
 
     def _make_covers(self, surface: pygame.Surface, slots: list[int]) -> bool:
-        """The covers of ``slots``, kept last used last, the least lately used dropped beyond the budget; False
-        (none built) if those of ``slots`` alone would take more."""
+        """The covers of ``slots``, kept last used last, the least lately used dropped beyond the budget. One
+        missing cover is built a frame (the nearest: the farther are built from it), so that no frame stalls
+        building many; False while any is missing, or if those of ``slots`` alone would take more than the
+        budget."""
         budget = self.budget_bytes // surface.get_bytesize()  # in pixels
         if sum(self._area(s) for s in set(slots)) > budget:
             return False
+        missing = sorted(set(slots).difference(self.covers), reverse=True)
+        if missing:
+            self.covers[missing[0]] = self._cover(surface, missing[0])
+            if len(missing) > 1:
+                return False
         for s in slots:
-            self.covers[s] = self.covers.pop(s) if s in self.covers else self._cover(surface, s)
+            self.covers[s] = self.covers.pop(s)
         while sum(self._area(s) for s in self.covers) > budget:
             del self.covers[next(iter(self.covers))]
         return True
@@ -132,13 +126,19 @@ class StillView:
         return at.width * at.height if at else 0
 
     def _cover(self, surface: pygame.Surface, slot: int) -> tuple[pygame.Surface, pygame.Rect]:
-        """Where a box from ``slot`` on painted last, the picture; elsewhere the colour key."""
+        """The boxes from ``slot`` on painted in order on the colour key, within the rectangle round them: those
+        up to the next cover built, then that cover."""
         at = self._reach[slot] if slot < len(self._reach) else pygame.Rect(0, 0, 0, 0)
-        area = (slice(at.left, at.right), slice(at.top, at.bottom))
-        cover = pygame.Surface(at.size, 0, surface)
-        if at.width and at.height:
-            key = cover.map_rgb(COLORKEY)
-            pygame.surfarray.blit_array(cover, np.where(self._last_box[area] > slot, self._pixels[area], key))
+        if self._scratch is None or self._scratch.get_size() != surface.get_size():
+            self._scratch = pygame.Surface(surface.get_size(), 0, surface)
+        scratch = self._scratch
+        scratch.fill(COLORKEY, at)  # the boxes from the slot on paint nowhere else
+        nearer = min((s for s in self.covers if s > slot), default=len(self._boxes))
+        paint_items(scratch, self._boxes[slot:nearer])
+        if nearer < len(self._boxes):
+            cover, where = self.covers[nearer]
+            scratch.blit(cover, where)
+        cover = scratch.subsurface(at).copy() if at.width and at.height else pygame.Surface((0, 0))
         cover.set_colorkey(COLORKEY)
         return cover, at
 

@@ -51,22 +51,24 @@ def in_full(renderer: Renderer) -> Renderer:
 
 @pytest.mark.parametrize("budget_bytes", [StillView().budget_bytes, 0])
 def test_frames_from_the_still_picture_equal_frames_painted_in_full(screen, budget_bytes):
-    moves = [(0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0),  # standing: the picture is used
-             (0.4, 0.6, 0.3, 0.05),  # he steps and turns: the camera moves, the picture is dropped
-             (0.4, 0.6, 0.3, 0.0), (0.4, 0.6, 0.3, 0.0)]  # standing again: a new picture
-    shown = []
+    standing = [(0.0, 0.0, 0.0, 0.0)] * 8  # the picture is built, then a cover a frame, then used alone
+    moved = [(0.4, 0.6, 0.3, 0.05)]  # he steps and turns: the camera moves, the picture is dropped
+    again = [(0.4, 0.6, 0.3, 0.0)] * 8  # standing again: a new picture
+    shown, used = [], []
     for still in (True, False):
         arena, avatar = street_scene()
         r = Renderer((1280, 720), seed=4)
         r.still.budget_bytes = budget_bytes
+        real = r.still.paint
+        r.still.paint = lambda *args: used.append(real(*args)) or used[-1]
         r.react([ArenaEvent("hit", (1.5, 9.0, 1.2), 0.5)])  # sparks, some behind the building
-        shown.append(frames(r if still else in_full(r), arena, avatar, moves))
+        shown.append(frames(r if still else in_full(r), arena, avatar, standing + moved + again))
         if still and budget_bytes:  # the picture was used, and painted boxes back over what they hide
-            assert r.still.picture is not None and any(slot > 0 for slot in r.still.covers)
+            assert used[7] and used[-1] and not used[8] and any(slot > 0 for slot in r.still.covers)
         elif still:
-            assert not r.still.covers  # no cover fits: every frame was painted in full
+            assert not any(used) and not r.still.covers  # no cover fits: every frame was painted in full
     assert shown[0] == shown[1]
-    assert shown[0][3] != shown[0][2]  # the camera moved
+    assert shown[0][8] != shown[0][7]  # the camera moved
 
 
 def test_a_moving_camera_keeps_no_picture(screen):
