@@ -151,6 +151,6 @@ class StillView:
         for rect in rects:
             hits = rect.collidelistall(boxes)  # only where the rectangle meets a box's
             if hits:
-                part = rect.clip(boxes[hits[0]]) if len(hits) == 1 else union([rect.clip(boxes[k]) for k in hits], at)
+                part = rect.clip(boxes[hits[0]] if len(hits) == 1 else at)
                 blits.append((cover, part.topleft, part.move(-x, -y)))
         surface.blits(blits, doreturn=False)
