@@ -1,6 +1,7 @@
 """All pygame drawing, by what it draws; :class:`Renderer` composes the parts for the app.
 
 - :mod:`.camera`: the third-person camera and the frame's one projection;
+- :mod:`.still`: the ground and the town's boxes painted once while the camera stands still;
 - :mod:`.world`: sky, ground, the town's lines on the ground and shadows (the world around the actors);
 - :mod:`.town`: the town's obstacles as boxes; :mod:`.occlusion`: what hides what from the
   camera, and the fade of a box in front of the player;

@@ -5,8 +5,10 @@ A world frame (:meth:`Renderer.draw_world`) gathers every point of the world
 and the effects (:mod:`.effects`) into one batch, projects it once
 (:mod:`.camera`), plans every paint call, then paints: ground, shadows, then
 boxes, actors and light far to near, each thing before the first box that
-covers it (:meth:`Renderer._order`). The 2D pictures (the HUD, the minimap,
-plots, screens and the Board setup's) come from the parts it inherits.
+covers it (:meth:`Renderer._order`); while the camera stands still, the
+ground and the boxes come from the still picture (:mod:`.still`). The 2D
+pictures (the HUD, the minimap, plots, screens and the Board setup's) come
+from the parts it inherits.
 """
 
 from __future__ import annotations
@@ -26,7 +28,8 @@ from .minimap import Minimap
 from .plots import Plots
 from .screens import Screens
 from .sprites import SpriteCache, TextCache
-from .town import TownPlan, TownView
+from .still import StillView, paint_items
+from .town import TownPlan, TownView, behind_walls
 from .world import Scenery, setting
 
 
@@ -42,7 +45,9 @@ class _Plan:
     grid: list = field(default_factory=list)  # [x1, y1, x2, y2] per line
     lines: list = field(default_factory=list)  # the town's lines on the ground: (x1, y1, x2, y2, colour)
     shadows: list = field(default_factory=list)  # MULT blit tuples
-    items: list = field(default_factory=list)  # (paint function, payload), far to near
+    boxes: list = field(default_factory=list)  # the town's boxes, (paint function, payload), far to near
+    buckets: list = field(default_factory=lambda: [[]])  # what goes before each box, and after the last
+    still: tuple | None = None  # the camera's pose and the town, when no box fades (:mod:`.still`)
     hurt: float = 0.0  # 0..1, the red vignette
 
 
@@ -79,6 +84,7 @@ class Renderer(Hud, Plots, Screens, BoardPictures):
         self.actors = Actors(self.camera, self.sprites, rng)
         self.effects = Effects(self.camera, self.sprites, rng, max_particles)
         self.vignette = Vignette()
+        self.still = StillView()
 
     def react(self, events: Iterable) -> None:
         """Spawn effects for arena events (:meth:`Effects.react`)."""
@@ -140,24 +146,33 @@ class Renderer(Hud, Plots, Screens, BoardPictures):
         plan.grid, plan.lines = self.scenery.plan_ground(frame, ground)
         plan.shadows = self.scenery.plan_shadows(frame, *self.actors.shadow_spots(actors))
         town_plan = self.town.plan(frame, boxes, points[self.actors.body_points(actors)], dt)
-        plan.items = self._order(town_plan, self.actors.plan(frame, actors, settings),
-                                 self.effects.plan(frame, particles, flashes), points, frame)
+        plan.boxes = town_plan.items
+        plan.buckets = self._order(town_plan, self.actors.plan(frame, actors, settings),
+                                   self.effects.plan(frame, particles, flashes), points, frame)
+        plan.still = (self.camera.pose(), id(model)) if town_plan.opaque else None
         return plan
 
-    def _order(self, boxes: TownPlan, things: list, light: tuple, points: np.ndarray, frame: Frame) -> list:
-        """Boxes, actors and light in one paint order (painter's algorithm, :mod:`.town`'s docstring).
+    def _order(self, boxes: TownPlan, things: list, light: tuple, points: np.ndarray, frame: Frame) -> list[list]:
+        """Boxes, actors and light in one paint order (painter's algorithm, :mod:`.town`'s docstring): what
+        goes before each box (its bucket), and after the last.
 
         The boxes come far to near. Each actor goes just before the first box
         that covers one of its probe points, or after every box, and the
         actors keep their own order far to near (an actor never goes after a
-        nearer one). Each glow and flash ring of the effects (additive: their
-        order does not matter) goes just before the first box that covers its point.
+        nearer one); an actor wholly behind a wall painted after it is left
+        out (:meth:`_walled_in`). Each glow and flash ring of the effects, and
+        each lamp post's light (additive: their order does not matter), goes
+        just before the first box that covers its point.
         """
         n = len(boxes.items)
         circles, glows, at = light
-        probes = [np.asarray(t[3], dtype=int) for t in things]
-        idx = np.concatenate(probes + [np.asarray(at, dtype=int)])
-        slots = self.town.cover_slots(boxes, self.camera.eye, points[idx], frame.xy[idx], frame.depth[idx])
+        lamps = boxes.lights
+        glows = glows + lamps.glows
+        probes = [t[3] for t in things]
+        idx = np.concatenate([np.array([i for p in probes for i in p], dtype=int), np.asarray(at, dtype=int)])
+        slots = self.town.cover_slots(boxes, self.camera.eye, np.concatenate([points[idx], lamps.points]),
+                                      np.concatenate([frame.xy[idx], lamps.xy]),
+                                      np.concatenate([frame.depth[idx], lamps.depth]))
         buckets: list[list] = [[] for _ in range(n + 1)]
         if things:
             lengths = [len(p) for p in probes]
@@ -165,24 +180,49 @@ class Renderer(Hud, Plots, Screens, BoardPictures):
             np.minimum.at(first, np.repeat(np.arange(len(things)), lengths), slots[:sum(lengths)])
             far_to_near = depth_order(np.array([t[0] for t in things]))
             mine = np.minimum.accumulate(first[far_to_near][::-1])[::-1]
+            slot_of = np.empty(len(things), dtype=int)
+            slot_of[far_to_near] = mine
+            out = self._walled_in(boxes, things, slot_of)
             for k, slot in zip(far_to_near.tolist(), mine.tolist()):
-                buckets[slot].append(things[k][1:3])
-        lit = slots[len(idx) - len(at):]
-        rings = len(circles)
-        for slot in np.unique(lit).tolist():
-            here = (lit == slot).tolist()
-            buckets[slot] += [(paint_calls, [c for c, keep in zip(circles, here) if keep]),
-                              (paint_blits, [g for g, keep in zip(glows, here[rings:]) if keep])]
-        items = []
-        for slot, box in enumerate(boxes.items):
-            items += buckets[slot]
-            items.append(box)
-        return items + buckets[n]
+                if not out[k]:
+                    buckets[slot].append(things[k][1:3])
+        lit = slots[len(idx) - len(at):].tolist()  # the effects' points (rings, then glows), then the lamps'
+        for paint, light_items, at_slots in ((paint_calls, circles, lit), (paint_blits, glows, lit[len(circles):])):
+            by_slot: dict[int, list] = {}
+            for item, slot in zip(light_items, at_slots):
+                by_slot.setdefault(slot, []).append(item)
+            for slot, payload in by_slot.items():
+                buckets[slot].append((paint, payload))
+        return buckets
+
+    @staticmethod
+    def _walled_in(boxes: TownPlan, things: list, slot_of: np.ndarray) -> list[bool]:
+        """Which actors need no painting: those with an extent (screen box and nearest depth) inside a wall's
+        rectangle (2 px in from it: the fill's rounding), wholly behind the wall, whose box is painted after
+        them (its slot not before theirs): the wall paints over every pixel of theirs."""
+        out = [False] * len(things)
+        rects, far, owner = boxes.walls
+        with_extent = [k for k, t in enumerate(things) if t[4] is not None]
+        if not len(rects) or not with_extent:
+            return out
+        extent = np.array([things[k][4] for k in with_extent], dtype=float)
+        behind = behind_walls(extent[:, :4], extent[:, 4], rects + (2.0, 2.0, -2.0, -2.0), far)
+        hidden = (behind & (owner[None, :] >= slot_of[with_extent][:, None])).any(axis=1)
+        for k, h in zip(with_extent, hidden.tolist()):
+            out[k] = h
+        return out
 
     def _paint(self, surface: pygame.Surface, plan: _Plan) -> None:
-        """Paint a planned frame: ground, shadows, then boxes, actors and light far to near."""
-        self.scenery.paint(surface, plan.grid, plan.lines, plan.shadows)
-        for paint, payload in plan.items:
-            paint(surface, payload)
+        """Paint a planned frame: ground, shadows, then boxes, actors and light far to near (from the still
+        picture if the camera has not moved, :mod:`.still`)."""
+        def ground(target: pygame.Surface) -> None:
+            self.scenery.paint_ground(target, plan.grid, plan.lines)
+
+        if not self.still.paint(surface, plan.still, ground, plan.shadows, plan.boxes, plan.buckets):
+            ground(surface)
+            self.scenery.paint_shadows(surface, plan.shadows)
+            for items, box in zip(plan.buckets, plan.boxes):
+                paint_items(surface, items + [box])
+            paint_items(surface, plan.buckets[-1])
         if plan.hurt > 0:
             self.vignette.draw(surface, plan.hurt)

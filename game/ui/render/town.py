@@ -132,17 +132,22 @@ def ground_lines(town) -> tuple[np.ndarray, np.ndarray, list[Colour]]:
 # ------------------------------------------------------------------ the boxes
 
 
+def behind_walls(screen: np.ndarray, nearest: np.ndarray, rects: np.ndarray, far: np.ndarray) -> np.ndarray:
+    """(N, W) bools: whether each thing's screen box (x0, y0, x1, y1, N of them) lies inside each wall's
+    rectangle (W of them) with the wall's farthest corner nearer than the thing's ``nearest`` depth."""
+    inside = ((rects[None, :, 0] <= screen[:, None, 0]) & (rects[None, :, 1] <= screen[:, None, 1])
+              & (rects[None, :, 2] >= screen[:, None, 2]) & (rects[None, :, 3] >= screen[:, None, 3]))
+    return inside & (far[None, :] < nearest[:, None])
+
+
 def hidden_boxes(screen: np.ndarray, nearest: np.ndarray, rects: np.ndarray, far: np.ndarray, owner: np.ndarray,
                  opaque: np.ndarray) -> np.ndarray:
     """Which boxes need no painting: those whose screen box (x0, y0, x1, y1) lies inside the rectangle of
     a wall of another, opaque box whose farthest corner is nearer than their nearest one."""
     if not len(rects):
         return np.zeros(len(screen), dtype=bool)
-    inside = ((rects[None, :, 0] <= screen[:, None, 0]) & (rects[None, :, 1] <= screen[:, None, 1])
-              & (rects[None, :, 2] >= screen[:, None, 2]) & (rects[None, :, 3] >= screen[:, None, 3]))
-    before = far[None, :] < nearest[:, None]
     other = owner[None, :] != np.arange(len(screen))[:, None]
-    return (inside & before & other & opaque[owner][None, :]).any(axis=1)
+    return (behind_walls(screen, nearest, rects, far) & other & opaque[owner][None, :]).any(axis=1)
 
 
 
@@ -309,14 +314,28 @@ class BoxPoints:
 
 
 @dataclass
+class LampLights:
+    """The lights at the lamp posts' tops: additive glow blits, and each one's world point, pixel and depth."""
+
+    glows: list = field(default_factory=list)
+    points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    xy: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    depth: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    owner: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))  # each light's lamp: its place in keep
+
+
+@dataclass
 class TownPlan:
     """A frame's boxes: paint items far to near, their bounds, their screen boxes and nearest depths."""
 
     items: list = field(default_factory=list)  # (paint, payload) per kept obstacle, far to near
+    lights: LampLights = field(default_factory=LampLights)  # those of the boxes painted
     lo: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     hi: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     screen: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))  # x0, y0, x1, y1 pixels
     nearest: np.ndarray = field(default_factory=lambda: np.zeros(0))  # the least depth of any corner
+    opaque: bool = True  # no box is fading: each is painted whole
+    walls: tuple = (np.zeros((0, 4)), np.zeros(0), np.zeros(0, dtype=int))  # the painted opaque walls (_walls)
 
 
 class TownView:
@@ -332,7 +351,8 @@ class TownView:
         self._scratch: pygame.Surface | None = None
         self._view_key: tuple | None = None  # the camera and town the view below was worked out for
         self._view: BoxPoints | None = None
-        self._drawn: tuple = ()  # that view's paint calls, screen boxes and nearest depths
+        self._drawn: tuple = ()  # that view's paint calls, lamp lights, screen boxes, nearest depths and walls
+        self._planned: tuple = (None, TownPlan())  # the last plan, and the opacities it was made with
 
     def model_of(self, town) -> TownModel | None:
         """The town's model, built at the first frame that shows it (and again for a new town)."""
@@ -351,7 +371,7 @@ class TownView:
         if m is None or not len(m.lo):
             return None
         cam = self.camera
-        key = (id(m), cam.width, cam.height, cam.f, *cam.eye.tolist(), *cam.rot.ravel().tolist())
+        key = (id(m), *cam.pose())
         if key == self._view_key and self._view is not None:
             self._view.fresh = False
             return self._view
@@ -395,19 +415,29 @@ class TownView:
         self.alpha = ease(self.alpha, faded, dt)
         if not n:
             return TownPlan()
+        alpha = self.alpha[keep]
+        if not g.fresh and np.array_equal(alpha, self._planned[0]):  # nothing changed since the last frame
+            return self._planned[1]
         if not g.fresh:
-            calls, screen, nearest, walls = self._drawn
+            calls, lights, screen, nearest, walls = self._drawn
         else:
-            calls, screen, nearest, walls = self._drawn = self._draw(m, frame, g)
-        opaque = self.alpha[keep] >= 0.999
+            calls, lights, screen, nearest, walls = self._drawn = self._draw(m, frame, g)
+        opaque = alpha >= 0.999
         hidden = hidden_boxes(screen, nearest, *walls, opaque).tolist()
         items = [(paint_calls, []) if out else (paint_calls, c) if a >= 0.999 else (self._paint_faded, (c, a))
-                 for c, a, out in zip(calls, self.alpha[keep].tolist(), hidden)]
-        return TownPlan(items, m.lo[keep], m.hi[keep], screen, nearest)
+                 for c, a, out in zip(calls, alpha.tolist(), hidden)]
+        shown = ~np.asarray(hidden, dtype=bool)[lights.owner]
+        lit = LampLights([glow for glow, k in zip(lights.glows, shown.tolist()) if k], lights.points[shown],
+                         lights.xy[shown], lights.depth[shown], lights.owner[shown])
+        solid = (opaque & ~np.asarray(hidden, dtype=bool))[walls[2]]
+        plan = TownPlan(items, lit, m.lo[keep], m.hi[keep], screen, nearest, bool(opaque.all()),
+                        tuple(w[solid] for w in walls))
+        self._planned = (alpha, plan)
+        return plan
 
     def _draw(self, m: TownModel, frame: Frame, g: BoxPoints) -> tuple:
-        """The kept obstacles' paint calls, their screen boxes, the depths of their nearest corners, and the
-        walls that may hide others (:meth:`_walls`)."""
+        """The kept obstacles' paint calls, their lamps' lights, their screen boxes, the depths of their nearest
+        corners, and the walls that may hide others (:meth:`_walls`)."""
         cam = self.camera
         level = np.minimum(FOG_LEVELS - 1, (fog(g.distance + 1.0) * ((FOG_LEVELS - 0.01) / 0.85)).astype(int))
         depth = frame.cam[g.points, 2]
@@ -418,8 +448,7 @@ class TownView:
                                   np.maximum.reduceat(xy[:, 0], g.offsets), np.maximum.reduceat(xy[:, 1], g.offsets)])
         screen[clipped] = (-np.inf, -np.inf, np.inf, np.inf)
         calls, walls = self._face_calls(m, frame, g, level, clipped)
-        self._lamp_calls(m, calls, frame, g, level, clipped)
-        return calls, screen, nearest, walls
+        return calls, self._lamp_calls(m, calls, frame, g, level, clipped), screen, nearest, walls
 
     def _face_calls(self, m: TownModel, frame: Frame, g: BoxPoints, level: np.ndarray,
                     clipped: np.ndarray) -> tuple[list[list], tuple]:
@@ -474,11 +503,12 @@ class TownView:
         return rects, depth.max(axis=1), rank
 
     def _lamp_calls(self, m: TownModel, calls: list[list], frame: Frame, g: BoxPoints, level: np.ndarray,
-                    clipped: np.ndarray) -> None:
-        """Each lamp post in view: its pole, and its light (an additive glow at the top); none within
-        ``NEAR_POLE_M`` of the eye (a pole beside the camera would cut the view in two)."""
+                    clipped: np.ndarray) -> LampLights:
+        """Each lamp post in view: its pole among its calls; returned, their lights (an additive glow at each
+        top); none within ``NEAR_POLE_M`` of the eye (a pole beside the camera would cut the view in two)."""
         cam = self.camera
-        line, blit = pygame.draw.line, pygame.Surface.blit
+        line = pygame.draw.line
+        glows, lit = [], []
         for i, j in zip(g.lamps.tolist(), range(g.lights.start, g.lights.stop)):
             if clipped[i] or g.distance[i] < NEAR_POLE_M:
                 continue
@@ -489,8 +519,11 @@ class TownView:
             calls[i].append((line, (pole, frame.ixy[foot].tolist(), frame.ixy[foot + 1].tolist(), width)))
             if frame.visible[j]:
                 x, y = frame.xy[j]
-                glow = self.sprites.glow_blit(x, y, cam.f * 0.55 / frame.depth[j], "spark", 2 if level[i] < 8 else 1)
-                calls[i].append((blit, glow))
+                glows.append(self.sprites.glow_blit(x, y, cam.f * 0.55 / frame.depth[j], "spark",
+                                                    2 if level[i] < 8 else 1))
+                lit.append((i, j))
+        owner, at = (np.array(v, dtype=int) for v in zip(*lit)) if lit else (np.zeros(0, dtype=int),) * 2
+        return LampLights(glows, m.light[g.keep[owner]], frame.xy[at], frame.depth[at], owner)
 
     def _line_calls(self, m: TownModel, calls: list[list], block: np.ndarray, g: BoxPoints, faces: np.ndarray,
                     level: np.ndarray) -> None:
@@ -547,25 +580,24 @@ class TownView:
         xy = self.camera.project_camera(np.array(out))[0]
         return clip_pixels(xy).astype(int).tolist()
 
-    def _paint_faded(self, surface: pygame.Surface, payload: tuple) -> None:
-        """Paint a box's calls onto a scratch surface, then onto the frame at the box's opacity (its lamp's
-        light, additive, straight onto the frame)."""
+    def _paint_faded(self, surface: pygame.Surface, payload: tuple) -> list[pygame.Rect]:
+        """Paint a box's calls onto a scratch surface, then onto the frame at the box's opacity; returns the
+        rectangle painted."""
         calls, alpha = payload
         pts = [p for fn, args in calls if fn is pygame.draw.polygon for p in args[1]]
         pts += [p for fn, args in calls if fn is pygame.draw.line for p in args[1:3]]  # a lamp's pole
         if not pts:
-            return
+            return []
         xs, ys = [p[0] for p in pts], [p[1] for p in pts]
         rect = pygame.Rect(min(xs) - 2, min(ys) - 2, max(xs) - min(xs) + 5, max(ys) - min(ys) + 5)
         rect = rect.clip(surface.get_rect())
         if not rect.width or not rect.height:
-            return
+            return []
         scratch = self._scratch
         if scratch is None or scratch.get_size() != surface.get_size():
             scratch = self._scratch = pygame.Surface(surface.get_size())
             scratch.set_colorkey(self.COLORKEY)
         scratch.fill(self.COLORKEY, rect)
-        paint_calls(scratch, [c for c in calls if c[0] is not pygame.Surface.blit])
+        paint_calls(scratch, calls)
         scratch.set_alpha(int(255 * alpha))
-        surface.blit(scratch, rect.topleft, rect)
-        paint_calls(surface, [c for c in calls if c[0] is pygame.Surface.blit])
+        return [surface.blit(scratch, rect.topleft, rect)]

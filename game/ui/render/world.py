@@ -84,8 +84,8 @@ class Scenery:
             self._ground_plan_key, self._ground_plan = key, self._plan_ground(frame.cam[ground])
         return self._ground_plan
 
-    def paint(self, surface: pygame.Surface, grid: list, lines: list, shadows: list) -> None:
-        """The background, the grid and the town's lines fading into the haze, the shadows on the ground."""
+    def paint_ground(self, surface: pygame.Surface, grid: list, lines: list) -> None:
+        """The background, the grid and the town's lines fading into the haze."""
         self._draw_background(surface)
         line = pygame.gfxdraw.line  # 1-px lines: several times faster than pygame.draw.line
         for x1, y1, x2, y2 in grid:
@@ -93,7 +93,11 @@ class Scenery:
         for x1, y1, x2, y2, colour in lines:
             line(surface, x1, y1, x2, y2, colour)
         self._draw_haze(surface)
-        surface.blits(shadows, doreturn=False)
+
+    @staticmethod
+    def paint_shadows(surface: pygame.Surface, shadows: list) -> list[pygame.Rect]:
+        """The shadows on the ground (:meth:`plan_shadows`); returns the rectangles painted."""
+        return surface.blits(shadows)
 
     def backdrop(self, surface: pygame.Surface) -> None:
         """The sky and the ground alone: behind a screen full of panels."""

@@ -278,3 +278,20 @@ def test_leaving_out_the_hidden_boxes_changes_no_pixel(screen, monkeypatch):
     monkeypatch.setattr(town_module, "hidden_boxes", lambda screen, *a: np.zeros(len(screen), dtype=bool))
     draw(arena, avatar, screen, frames=2)
     assert pygame.image.tobytes(screen, "RGB") == with_culling
+
+
+def test_a_zombie_wholly_behind_a_wall_is_left_out_and_leaving_it_out_changes_no_pixel(screen, monkeypatch):
+    # ahead a building from y 8 to 12, 8 m high; one zombie behind it, one beside it
+    building = Obstacle("building", -3.0, 8.0, 3.0, 12.0, 8.0)
+    behind = Zombie(id=1, x=0.0, y=16.0, speed=1.0, health=1, phase=0.0, heading=-math.pi / 2)
+    beside = Zombie(id=2, x=6.0, y=10.0, speed=1.0, health=1, phase=0.0, heading=-math.pi / 2)
+    arena, avatar = town_arena([building], [behind, beside])
+    left_out = []
+    real = Renderer._walled_in
+    monkeypatch.setattr(Renderer, "_walled_in", staticmethod(lambda *a: left_out.append(real(*a)) or left_out[-1]))
+    draw(arena, avatar, screen, frames=2)
+    with_culling = pygame.image.tobytes(screen, "RGB")
+    assert sum(left_out[-1]) == 1  # the zombie behind the building, not the one beside it nor the avatar
+    monkeypatch.setattr(Renderer, "_walled_in", staticmethod(lambda boxes, things, slots: [False] * len(things)))
+    draw(arena, avatar, screen, frames=2)
+    assert pygame.image.tobytes(screen, "RGB") == with_culling
