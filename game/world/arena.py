@@ -41,9 +41,8 @@ moment (the fizzle's sound and flash belong there); it then fades out over
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 from enum import Enum
-from functools import cached_property
 from operator import attrgetter
 
 import numpy as np
@@ -194,9 +193,12 @@ class ArenaSettings:
     score_wave_bonus: float = 0.25
     held_spin_rate: float = 3.0
     held_spin_rate_spinning: float = 20.0
+    _per_step: _PerStep = field(init=False, repr=False, compare=False)  # what every fixed step uses
 
     def __post_init__(self) -> None:
         for f in fields(self):
+            if not f.init:
+                continue
             value = getattr(self, f.name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise ValueError(f"{f.name} must be a finite number, not {value!r}")
@@ -236,6 +238,9 @@ class ArenaSettings:
         for ok, message in checks:
             if not ok:
                 raise ValueError(message)
+        # Worked out here, not as a cached_property: the compiled build turns one into a plain
+        # property, which would work them out again at every use.
+        object.__setattr__(self, "_per_step", _PerStep(self))
 
     # ------------------------------------------------------------ derived
 
@@ -269,11 +274,6 @@ class ArenaSettings:
         """Points for one hit with a ball of ``charge`` in wave ``wave``."""
         multiplier = 1.0 + self.score_wave_bonus * max(0, wave - 1)
         return int(round(self.score_per_hit * (1.0 + charge) * multiplier))
-
-    @cached_property
-    def _per_step(self) -> _PerStep:
-        """The numbers every fixed step uses, worked out once per (frozen) settings."""
-        return _PerStep(self)
 
 
 class _PerStep:
