@@ -568,8 +568,8 @@ class Arena:
         self.time = self.ticks * dt
         self._move_player(controls, dt)
         self._update_wave(events, dt)
-        walking = self._move_zombies(dt)
-        if self._inside_obstacle(walking):
+        walking, hemmed = self._move_zombies(dt)
+        if self._inside_obstacle(hemmed):
             self.obstacle_violations += 1
         self._move_balls(events, dt, walking)
         self._contact(events, dt, walking)
@@ -646,8 +646,9 @@ class Arena:
 
     # ------------------------------------------------------------ zombies
 
-    def _move_zombies(self, dt: float) -> list[Zombie]:
-        """Walk, turn and separate the walking zombies, fly the flying ones; return the walking ones.
+    def _move_zombies(self, dt: float) -> tuple[list[Zombie], list[Zombie]]:
+        """Walk, turn and separate the walking zombies, fly the flying ones; return the walking ones,
+        and those of them that stand near an obstacle (:meth:`_separate`).
 
         A zombie marked GONE at an earlier step is dropped from :attr:`zombies`
         here; one that lands now is marked GONE and dropped at the next step.
@@ -726,12 +727,12 @@ class Arena:
             z.state = ZombieState.GONE
             z.age = 0.0
         self._walking = len(walking)
-        self._separate(sorted(walking, key=_by_x))
-        return walking
+        return walking, self._separate(sorted(walking, key=_by_x))
 
-    def _separate(self, walking: list[Zombie]) -> None:
+    def _separate(self, walking: list[Zombie]) -> list[Zombie]:
         """Push apart walking zombies closer than two radii (half the overlap each), then out of the
-        town's obstacles (they slide along walls).
+        town's obstacles (they slide along walls); return those that may stand near an obstacle:
+        the others stand in a cell of the town's grid with none (:meth:`_inside_obstacle` skips them).
 
         ``walking`` is sorted by x. A sweep along x pairs each zombie with the
         following ones less than two radii further in x (none when the next one
@@ -770,22 +771,32 @@ class Arena:
             xs[i], ys[i] = xi, yi
         town, radius = self.town, s.zombie_radius_m
         near, h = town.grid.near, town.half_size_m - radius
+        hemmed = []
         for z, x, y in zip(walking, xs, ys):
             if near(x, y):  # an obstacle close by (its cell's list): out of it, along its face
                 x, y = push_out(town, x, y, radius)
+                hemmed.append(z)
             else:  # open ground: only the town's edge holds it
-                x = -h if x < -h else h if x > h else x
-                y = -h if y < -h else h if y > h else y
+                cx = -h if x < -h else h if x > h else x
+                cy = -h if y < -h else h if y > h else y
+                if cx != x or cy != y:  # held at the edge: maybe in another cell
+                    hemmed.append(z)
+                x, y = cx, cy
             z.x, z.y = x, y
+        return hemmed
 
-    def _inside_obstacle(self, walking: list[Zombie]) -> bool:
-        """Whether the player or a zombie of ``walking`` stands inside an obstacle (deeper than
-        ``INSIDE_TOLERANCE_M``)."""
+    def _inside_obstacle(self, hemmed: list[Zombie]) -> bool:
+        """Whether the player or a zombie of ``hemmed`` (the walking ones that may stand near an
+        obstacle: :meth:`_separate`) stands inside an obstacle (deeper than ``INSIDE_TOLERANCE_M``)."""
         s, town, p = self.settings, self.town, self.player
         if inside(town, p.x, p.y, s.player_radius_m, INSIDE_TOLERANCE_M):
             return True
         r, near = s.zombie_radius_m, town.grid.near
-        return any(near(z.x, z.y) and inside(town, z.x, z.y, r, INSIDE_TOLERANCE_M) for z in walking)
+        for z in hemmed:
+            x, y = z.x, z.y
+            if near(x, y) and inside(town, x, y, r, INSIDE_TOLERANCE_M):
+                return True
+        return False
 
     # ------------------------------------------------------------ balls
 
