@@ -79,6 +79,29 @@ _POSITIVE = ("player_radius_m", "dt_s", "max_catch_up_s", "player_speed_m_s", "p
              "gravity", "blown_up_min_m_s", "flying_max_s", "flying_max_height_m")
 
 
+class _PerStep:
+    """Constants of the fixed step derived from :class:`ArenaSettings`, so that
+    :meth:`Arena.step` does not work them out again 120 times a second. Each is
+    the very expression the step used, so the floats are the same."""
+
+    __slots__ = ("player_step", "stop", "phase_per_m", "max_turn", "knock_decay", "fall", "gap", "gap2",
+                 "reach2", "ball_fall", "fade_step")
+
+    def __init__(self, s: ArenaSettings) -> None:
+        dt = s.dt_s
+        self.player_step = s.player_speed_m_s * dt  # metres walked per step at full input
+        self.stop = STOP_FRACTION * s.contact_distance_m  # a zombie walks no closer than this
+        self.phase_per_m = TAU / s.zombie_stride_m if s.zombie_stride_m > 0 else 0.0
+        self.max_turn = s.zombie_turn_rate * dt  # a zombie's largest turn per step
+        self.knock_decay = math.exp(-dt / s.knockback_s)  # a knock-back slide's speed left after a step
+        self.fall = s.gravity * dt  # a flying zombie's vertical speed lost per step
+        self.gap = 2.0 * s.zombie_radius_m  # two walking zombies closer than this are pushed apart
+        self.gap2 = self.gap * self.gap
+        self.reach2 = s.contact_distance_m ** 2
+        self.ball_fall = s.ball_gravity * dt
+        self.fade_step = dt / s.ball_fade_s  # a missed ball's fade per step
+
+
 @mypyc_attr(native_class=False)  # a plain class even when compiled (README, "The compiled build")
 @dataclass(frozen=True)
 class ArenaSettings:
@@ -274,29 +297,6 @@ class ArenaSettings:
         """Points for one hit with a ball of ``charge`` in wave ``wave``."""
         multiplier = 1.0 + self.score_wave_bonus * max(0, wave - 1)
         return int(round(self.score_per_hit * (1.0 + charge) * multiplier))
-
-
-class _PerStep:
-    """Constants of the fixed step derived from :class:`ArenaSettings`, so that
-    :meth:`Arena.step` does not work them out again 120 times a second. Each is
-    the very expression the step used, so the floats are the same."""
-
-    __slots__ = ("player_step", "stop", "phase_per_m", "max_turn", "knock_decay", "fall", "gap", "gap2",
-                 "reach2", "ball_fall", "fade_step")
-
-    def __init__(self, s: ArenaSettings) -> None:
-        dt = s.dt_s
-        self.player_step = s.player_speed_m_s * dt  # metres walked per step at full input
-        self.stop = STOP_FRACTION * s.contact_distance_m  # a zombie walks no closer than this
-        self.phase_per_m = TAU / s.zombie_stride_m if s.zombie_stride_m > 0 else 0.0
-        self.max_turn = s.zombie_turn_rate * dt  # a zombie's largest turn per step
-        self.knock_decay = math.exp(-dt / s.knockback_s)  # a knock-back slide's speed left after a step
-        self.fall = s.gravity * dt  # a flying zombie's vertical speed lost per step
-        self.gap = 2.0 * s.zombie_radius_m  # two walking zombies closer than this are pushed apart
-        self.gap2 = self.gap * self.gap
-        self.reach2 = s.contact_distance_m ** 2
-        self.ball_fall = s.ball_gravity * dt
-        self.fade_step = dt / s.ball_fade_s  # a missed ball's fade per step
 
 
 # ---------------------------------------------------------------- geometry
