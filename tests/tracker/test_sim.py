@@ -339,7 +339,7 @@ def test_a_chain_works_out_its_hinges_and_arms_once():
     # Every block of samples reads them: they must not be built again at each use (as a cached_property
     # was in the compiled build). The arm by hand: the elbow 0.30 m down the upper arm, the IMU 0.30 m.
     chain = arm_chain(upper_arm_m=0.30, sensor_m=0.25)
-    assert chain.hinges is chain.hinges and chain.arms is chain.arms
+    assert chain.hinges is chain.hinges and chain.arms[1] is chain.arms[1]  # (compiled, the tuple is boxed anew)
     assert chain.hinges.tolist() == [[0.0, 1.0, 0.0]]
     index, vectors = chain.arms
     assert index == [0, 0] and vectors.tolist() == [[0.0, 0.0, -0.30], [0.0, 0.0, -0.25]]
