@@ -41,9 +41,8 @@ moment (the fizzle's sound and flash belong there); it then fades out over
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 from enum import Enum
-from functools import cached_property
 from operator import attrgetter
 
 import numpy as np
@@ -78,6 +77,29 @@ _POSITIVE = ("player_radius_m", "dt_s", "max_catch_up_s", "player_speed_m_s", "p
              "zombie_turn_rate", "contact_distance_m", "knockback_s", "spawn_interval_s",
              "spawn_interval_min_s", "ball_radius_m", "ball_speed_m_s", "ball_max_flight_s", "ball_fade_s",
              "gravity", "blown_up_min_m_s", "flying_max_s", "flying_max_height_m")
+
+
+class _PerStep:
+    """Constants of the fixed step derived from :class:`ArenaSettings`, so that
+    :meth:`Arena.step` does not work them out again 120 times a second. Each is
+    the very expression the step used, so the floats are the same."""
+
+    __slots__ = ("player_step", "stop", "phase_per_m", "max_turn", "knock_decay", "fall", "gap", "gap2",
+                 "reach2", "ball_fall", "fade_step")
+
+    def __init__(self, s: ArenaSettings) -> None:
+        dt = s.dt_s
+        self.player_step = s.player_speed_m_s * dt  # metres walked per step at full input
+        self.stop = STOP_FRACTION * s.contact_distance_m  # a zombie walks no closer than this
+        self.phase_per_m = TAU / s.zombie_stride_m if s.zombie_stride_m > 0 else 0.0
+        self.max_turn = s.zombie_turn_rate * dt  # a zombie's largest turn per step
+        self.knock_decay = math.exp(-dt / s.knockback_s)  # a knock-back slide's speed left after a step
+        self.fall = s.gravity * dt  # a flying zombie's vertical speed lost per step
+        self.gap = 2.0 * s.zombie_radius_m  # two walking zombies closer than this are pushed apart
+        self.gap2 = self.gap * self.gap
+        self.reach2 = s.contact_distance_m ** 2
+        self.ball_fall = s.ball_gravity * dt
+        self.fade_step = dt / s.ball_fade_s  # a missed ball's fade per step
 
 
 @mypyc_attr(native_class=False)  # a plain class even when compiled (README, "The compiled build")
@@ -194,9 +216,12 @@ class ArenaSettings:
     score_wave_bonus: float = 0.25
     held_spin_rate: float = 3.0
     held_spin_rate_spinning: float = 20.0
+    _per_step: _PerStep = field(init=False, repr=False, compare=False)  # what every fixed step uses
 
     def __post_init__(self) -> None:
         for f in fields(self):
+            if not f.init:
+                continue
             value = getattr(self, f.name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise ValueError(f"{f.name} must be a finite number, not {value!r}")
@@ -236,6 +261,9 @@ class ArenaSettings:
         for ok, message in checks:
             if not ok:
                 raise ValueError(message)
+        # Worked out here, not as a cached_property: the compiled build turns one into a plain
+        # property, which would work them out again at every use.
+        object.__setattr__(self, "_per_step", _PerStep(self))
 
     # ------------------------------------------------------------ derived
 
@@ -269,34 +297,6 @@ class ArenaSettings:
         """Points for one hit with a ball of ``charge`` in wave ``wave``."""
         multiplier = 1.0 + self.score_wave_bonus * max(0, wave - 1)
         return int(round(self.score_per_hit * (1.0 + charge) * multiplier))
-
-    @cached_property
-    def _per_step(self) -> _PerStep:
-        """The numbers every fixed step uses, worked out once per (frozen) settings."""
-        return _PerStep(self)
-
-
-class _PerStep:
-    """Constants of the fixed step derived from :class:`ArenaSettings`, so that
-    :meth:`Arena.step` does not work them out again 120 times a second. Each is
-    the very expression the step used, so the floats are the same."""
-
-    __slots__ = ("player_step", "stop", "phase_per_m", "max_turn", "knock_decay", "fall", "gap", "gap2",
-                 "reach2", "ball_fall", "fade_step")
-
-    def __init__(self, s: ArenaSettings) -> None:
-        dt = s.dt_s
-        self.player_step = s.player_speed_m_s * dt  # metres walked per step at full input
-        self.stop = STOP_FRACTION * s.contact_distance_m  # a zombie walks no closer than this
-        self.phase_per_m = TAU / s.zombie_stride_m if s.zombie_stride_m > 0 else 0.0
-        self.max_turn = s.zombie_turn_rate * dt  # a zombie's largest turn per step
-        self.knock_decay = math.exp(-dt / s.knockback_s)  # a knock-back slide's speed left after a step
-        self.fall = s.gravity * dt  # a flying zombie's vertical speed lost per step
-        self.gap = 2.0 * s.zombie_radius_m  # two walking zombies closer than this are pushed apart
-        self.gap2 = self.gap * self.gap
-        self.reach2 = s.contact_distance_m ** 2
-        self.ball_fall = s.ball_gravity * dt
-        self.fade_step = dt / s.ball_fade_s  # a missed ball's fade per step
 
 
 # ---------------------------------------------------------------- geometry
@@ -568,8 +568,8 @@ class Arena:
         self.time = self.ticks * dt
         self._move_player(controls, dt)
         self._update_wave(events, dt)
-        walking = self._move_zombies(dt)
-        if self._inside_obstacle(walking):
+        walking, hemmed = self._move_zombies(dt)
+        if self._inside_obstacle(hemmed):
             self.obstacle_violations += 1
         self._move_balls(events, dt, walking)
         self._contact(events, dt, walking)
@@ -646,8 +646,9 @@ class Arena:
 
     # ------------------------------------------------------------ zombies
 
-    def _move_zombies(self, dt: float) -> list[Zombie]:
-        """Walk, turn and separate the walking zombies, fly the flying ones; return the walking ones.
+    def _move_zombies(self, dt: float) -> tuple[list[Zombie], list[Zombie]]:
+        """Walk, turn and separate the walking zombies, fly the flying ones; return the walking ones,
+        and those of them that stand near an obstacle (:meth:`_separate`).
 
         A zombie marked GONE at an earlier step is dropped from :attr:`zombies`
         here; one that lands now is marked GONE and dropped at the next step.
@@ -726,12 +727,12 @@ class Arena:
             z.state = ZombieState.GONE
             z.age = 0.0
         self._walking = len(walking)
-        self._separate(sorted(walking, key=_by_x))
-        return walking
+        return walking, self._separate(sorted(walking, key=_by_x))
 
-    def _separate(self, walking: list[Zombie]) -> None:
+    def _separate(self, walking: list[Zombie]) -> list[Zombie]:
         """Push apart walking zombies closer than two radii (half the overlap each), then out of the
-        town's obstacles (they slide along walls).
+        town's obstacles (they slide along walls); return those that may stand near an obstacle:
+        the others stand in a cell of the town's grid with none (:meth:`_inside_obstacle` skips them).
 
         ``walking`` is sorted by x. A sweep along x pairs each zombie with the
         following ones less than two radii further in x (none when the next one
@@ -770,22 +771,32 @@ class Arena:
             xs[i], ys[i] = xi, yi
         town, radius = self.town, s.zombie_radius_m
         near, h = town.grid.near, town.half_size_m - radius
+        hemmed = []
         for z, x, y in zip(walking, xs, ys):
             if near(x, y):  # an obstacle close by (its cell's list): out of it, along its face
                 x, y = push_out(town, x, y, radius)
+                hemmed.append(z)
             else:  # open ground: only the town's edge holds it
-                x = -h if x < -h else h if x > h else x
-                y = -h if y < -h else h if y > h else y
+                cx = -h if x < -h else h if x > h else x
+                cy = -h if y < -h else h if y > h else y
+                if cx != x or cy != y:  # held at the edge: maybe in another cell
+                    hemmed.append(z)
+                x, y = cx, cy
             z.x, z.y = x, y
+        return hemmed
 
-    def _inside_obstacle(self, walking: list[Zombie]) -> bool:
-        """Whether the player or a zombie of ``walking`` stands inside an obstacle (deeper than
-        ``INSIDE_TOLERANCE_M``)."""
+    def _inside_obstacle(self, hemmed: list[Zombie]) -> bool:
+        """Whether the player or a zombie of ``hemmed`` (the walking ones that may stand near an
+        obstacle: :meth:`_separate`) stands inside an obstacle (deeper than ``INSIDE_TOLERANCE_M``)."""
         s, town, p = self.settings, self.town, self.player
         if inside(town, p.x, p.y, s.player_radius_m, INSIDE_TOLERANCE_M):
             return True
         r, near = s.zombie_radius_m, town.grid.near
-        return any(near(z.x, z.y) and inside(town, z.x, z.y, r, INSIDE_TOLERANCE_M) for z in walking)
+        for z in hemmed:
+            x, y = z.x, z.y
+            if near(x, y) and inside(town, x, y, r, INSIDE_TOLERANCE_M):
+                return True
+        return False
 
     # ------------------------------------------------------------ balls
 

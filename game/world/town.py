@@ -37,8 +37,7 @@ so building the town never changes the draws of the arena's
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
-from functools import cached_property
+from dataclasses import dataclass, field, fields
 from typing import Callable
 
 import numpy as np
@@ -118,7 +117,7 @@ class Street:
         return min(self.x1 - self.x0, self.y1 - self.y0)
 
 
-@mypyc_attr(native_class=False)  # a plain class even when compiled: cached_property needs an instance dict
+@mypyc_attr(native_class=False)  # a plain class even when compiled: __post_init__ sets the frozen grid
 @dataclass(frozen=True)
 class Town:
     """A town: its obstacles, open ground, start square and spawn points (see the module's docstring).
@@ -135,11 +134,12 @@ class Town:
     spawn_points: tuple[Point, ...] = ()  # where zombies come in: street ends at the edge, alleys
     streets: tuple[Street, ...] = ()
     min_passage_m: float = 2.5  # the clear gap every street and alley keeps across
+    grid: ObstacleGrid = field(init=False, repr=False, compare=False)  # the spatial hash of ``obstacles``
 
-    @cached_property
-    def grid(self) -> ObstacleGrid:
-        """The spatial hash of :attr:`obstacles`, built at its first use."""
-        return ObstacleGrid(self.obstacles, self.half_size_m)
+    def __post_init__(self) -> None:
+        # Built here, not as a cached_property: the compiled build turns one into a plain property,
+        # which would build the grid again at every use.
+        object.__setattr__(self, "grid", ObstacleGrid(self.obstacles, self.half_size_m))
 
 
 @dataclass(frozen=True)

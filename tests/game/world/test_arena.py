@@ -565,3 +565,9 @@ def test_a_seeded_match_keeps_every_body_out_of_the_town_obstacles():
     for k in range(int(40.0 / DT)):
         arena.step(Controls(forward=1.0, turn=0.4 if (k // 600) % 2 else -0.4))
     assert len(arena.zombies) > 5 and arena.obstacle_violations == 0
+
+
+def test_the_per_step_constants_are_worked_out_once_from_the_settings():
+    s = ArenaSettings(zombie_radius_m=0.4)
+    assert s._per_step is s._per_step and s._per_step.gap == 0.8
+    assert s == ArenaSettings(zombie_radius_m=0.4) and "_per_step" not in repr(s)

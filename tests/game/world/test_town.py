@@ -1,5 +1,6 @@
 """The town generator: deterministic per seed, distinct layouts, and its promises checked by sampling."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -142,3 +143,13 @@ def test_settings_change_the_town_as_documented():
 def test_a_hand_built_town_needs_only_its_size_and_obstacles():
     town = Town(half_size_m=10.0, obstacles=(Obstacle("wall", 0.0, -2.0, 0.3, 2.0, 2.0),))
     assert town.layout == "custom" and town.spawn_points == () and town.grid.near(0.1, 0.0)
+
+
+def test_the_grid_is_built_once_and_follows_a_replaced_town():
+    # Every near() of every body reads it: it must not be built again at each use (as a cached_property
+    # was in the compiled build), and a town made from another with new obstacles gets its own.
+    town = make_town(3)
+    assert town.grid is town.grid and town.grid.obstacles == town.obstacles
+    wall = Obstacle("wall", 0.0, -2.0, 0.3, 2.0, 2.0)
+    moved = dataclasses.replace(town, obstacles=(wall,))
+    assert moved.grid.obstacles == (wall,) and moved == dataclasses.replace(town, obstacles=(wall,))
