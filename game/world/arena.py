@@ -596,7 +596,7 @@ class Arena:
             step = s._per_step.player_step
             x = p.x + step * (-si * forward + c * strafe)
             y = p.y + step * (c * forward + si * strafe)
-            p.x, p.y = push_out(self.town, x, y, s.player_radius_m)  # slides along walls
+            p.x, p.y = push_out(self.town, x, y, s.player_radius_m, (p.x, p.y))  # slides along walls
         if p.hurt > 0.0:
             p.hurt = max(0.0, p.hurt - dt)
 
@@ -669,6 +669,7 @@ class Arena:
             state = z.state
             if state is walking_state:
                 z.age += dt
+                z.start = (z.x, z.y)
                 kvx, kvy, _ = z.velocity
                 if kvx or kvy:  # sliding from a knock-back
                     z.x += kvx * dt
@@ -774,7 +775,7 @@ class Arena:
         hemmed = []
         for z, x, y in zip(walking, xs, ys):
             if near(x, y):  # an obstacle close by (its cell's list): out of it, along its face
-                x, y = push_out(town, x, y, radius)
+                x, y = push_out(town, x, y, radius, z.start)
                 hemmed.append(z)
             else:  # open ground: only the town's edge holds it
                 cx = -h if x < -h else h if x > h else x

@@ -18,11 +18,15 @@ from .town import Obstacle, Town
 Vec3 = tuple[float, float, float]
 PASSES = 6  # push_out's rounds over the nearby obstacles (a push out of one can press into another)
 SKIN_M = 1e-4  # after the first round, bodies are pushed this much beyond touching (see push_out)
+WEDGED_M = 1e-7  # still this deep in an obstacle after every round: wedged (the fallback's test)
 
 
-def push_out(town: Town, x: float, y: float, radius: float) -> tuple[float, float]:
+def push_out(town: Town, x: float, y: float, radius: float,
+             fallback: tuple[float, float] | None = None) -> tuple[float, float]:
     """The centre of a circle of ``radius`` at (x, y) moved out of every obstacle it overlaps, and
-    into the town's area (at least ``radius`` in from its edge).
+    into the town's area (at least ``radius`` in from its edge); where no place near is out of them
+    all (a gap between two obstacles narrower than the body), ``fallback``: the body stays where it
+    was.
 
     Against one box: the circle's centre is moved away from the box's
     closest point to it until it is ``radius`` away, so only the component
@@ -71,6 +75,9 @@ def push_out(town: Town, x: float, y: float, radius: float) -> tuple[float, floa
         if not moved:
             break
         reach = radius + SKIN_M
+    else:  # every round moved it: it may be wedged where it does not fit
+        if fallback is not None and inside(town, x, y, radius, WEDGED_M):
+            return fallback
     return (-h if x < -h else h if x > h else x), (-h if y < -h else h if y > h else y)
 
 

@@ -540,6 +540,20 @@ def test_a_zombie_walks_round_a_wall_to_the_player_and_never_into_it():
     assert closest >= r - 1e-9 and arena.obstacle_violations == 0
 
 
+def test_the_player_cannot_squeeze_through_a_gap_narrower_than_himself():
+    """Seed 113's town: a wall's end 0.691 m from a building's side, less than the player's 0.70 m.
+    Pushed out of one and into the other, he stood 9 mm inside the wall for 21 steps and then came
+    through; now he stays where he was when no place near is out of both."""
+    wall = Obstacle("wall", 13.321, -23.048, 17.368, -22.608, 2.0)
+    building = Obstacle("building", 18.059, -22.696, 22.696, -16.952, 8.0)
+    arena = Arena(NO_WAVES, town=Town(half_size_m=24.0, obstacles=(wall, building), spawn_points=((0.0, 23.0),)))
+    arena.player.x, arena.player.y = 17.72, -23.4  # south of the gap, beside the wall's end
+    for k in range(360):  # 3 s north, swaying left and right
+        arena.step(Controls(forward=1.0, strafe=0.3 if (k // 40) % 2 else -0.3))
+    assert arena.obstacle_violations == 0
+    assert arena.player.y < building.y0  # not through
+
+
 def test_a_zombie_in_a_pocket_the_grid_leaves_closed_finds_the_gap_out():
     """A walled yard open by a 1.3 m gap in its south wall (x 5.0 to 6.3): a body (0.7 m) fits,
     but the free strip for its centre (5.35 to 5.95) spans no whole 0.5 m cell, so on the
