@@ -281,6 +281,18 @@ def make_miss() -> np.ndarray:
     return hiss * env + 0.2 * spark
 
 
+def make_wall() -> np.ndarray:
+    """A ball bursting on a wall: a dull thud (sine dropping 110 -> 55 Hz) on a short knock of low noise,
+    and a few sparks crackling off."""
+    n = samples(0.4)
+    t = clock(n)
+    thud = np.sin(phase_of(55.0 + 55.0 * np.exp(-t / 0.025))) * decay(n, 0.07)
+    knock = fft_filter(noise(n, 451), lambda f: band(f, 380.0, 1.2)) * decay(n, 0.018)
+    knock /= np.max(np.abs(knock)) + 1e-12
+    spark = crackles(n, 6, 452) * decay(n, 0.08)
+    return np.tanh(1.8 * (thud + 0.8 * knock)) * ramp(n, 0.002, 0.05) + 0.25 * spark
+
+
 VOWELS = {  # zombie vowels: formant (Hz, bandwidth Hz, level), set a little lower than a person's
     "oo": [(320.0, 90.0, 1.0), (720.0, 120.0, 0.5), (2200.0, 200.0, 0.12)],
     "aa": [(640.0, 110.0, 1.0), (1000.0, 130.0, 0.6), (2300.0, 220.0, 0.18)],
@@ -513,6 +525,7 @@ SOUNDS: tuple[Sound, ...] = (
             f"charging hum loop, {('low', 'mid', 'high')[k - 1]} charge (1 s, seamless)") for k in (1, 2, 3)),
     Sound("hit", make_hit, 0.95, False, "ball hits a zombie: boom + zap"),
     Sound("miss", make_miss, 0.5, False, "ball fizzles out"),
+    Sound("wall", make_wall, 0.7, False, "ball bursts on a wall: thud + sparks"),
     *(Sound(f"groan_{k}", lambda k=k: make_groan(k), 0.7, False, f"zombie groan, variant {k}") for k in (1, 2, 3)),
     Sound("hurt", make_hurt, 0.9, False, "player is hurt: thud + crunch"),
     Sound("wave", make_wave, 0.8, False, "gong: a new wave begins"),

@@ -216,7 +216,8 @@ class MagProcedure:
         self._group: list[float] = [0.0, 0.0, 0.0, 0.0]  # the readings being averaged: sums and count
         self._noise = _Noise()
         self._centre: tuple[float, float, float] | None = None
-        self._covered: set[int] = set()
+        self._covered: set[int] = set()  # the direction bins covered ...
+        self._flags: tuple[bool, ...] = (False,) * BINS  # ... and per bin, for the status
         self._refit_t: float | None = None
         self._magnet = ""  # a magnet seen (kept: its readings are kept)
         self._fitted = ""  # what the latest live fit found wrong
@@ -276,7 +277,15 @@ class MagProcedure:
         self._span(mean)
         c = self._centre
         if c is not None:
-            self._covered.add(int(bin_index(np.array([[mean[0] - c[0], mean[1] - c[1], mean[2] - c[2]]]))[0]))
+            b = int(bin_index(np.array([[mean[0] - c[0], mean[1] - c[1], mean[2] - c[2]]]))[0])
+            if b not in self._covered:
+                self._cover(self._covered | {b})
+
+    def _cover(self, bins: set[int]) -> None:
+        """Take ``bins`` as the direction bins covered (the status's flags are worked out once here,
+        not for every sample)."""
+        self._covered = bins
+        self._flags = tuple(i in bins for i in range(BINS))
 
     def _span(self, m: tuple[float, float, float]) -> None:
         """Widen each axis's range by ``m``; more than the earth's field can span is a magnet."""
@@ -300,12 +309,13 @@ class MagProcedure:
         except MagFitError:
             return
         if sphere.field_ut < self.params.field_min_ut:  # a cloud of noise about a board lying still
-            self._centre, self._covered = None, set()
+            self._centre = None
+            self._cover(set())
             return
         centre = np.array(sphere.offset)
         self._centre = (float(centre[0]), float(centre[1]), float(centre[2]))
         d = x - centre
-        self._covered = set(bin_index(d[np.linalg.norm(d, axis=1) > 0.0]).tolist())
+        self._cover(set(bin_index(d[np.linalg.norm(d, axis=1) > 0.0]).tolist()))
         self._fitted = ""
         if len(self._covered) / BINS >= self.params.target_coverage:
             try:
@@ -350,7 +360,7 @@ class MagProcedure:
     def _describe(self, message: str) -> MagStatus:
         problem = self._magnet or self._fitted
         share = len(self._covered) / BINS
-        return MagStatus(share, tuple(i in self._covered for i in range(BINS)), self._field, problem,
+        return MagStatus(share, self._flags, self._field, problem,
                          problem or message, share >= self.params.target_coverage)
 
     def finish(self) -> MagResult:

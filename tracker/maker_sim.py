@@ -64,6 +64,7 @@ from .motion import SensorReading
 from .protocol import MAG_UT_PER_COUNT, STANDARD_GRAVITY, RawSample
 from .sim import (SCALE_TOLERANCE, Chain, LinkSpec, Motion, SampleStream, SensorErrors, SensorSpec, Simulator,
                   realistic_errors)
+from .sim_board import ACC_FS_G, GYR_FS_DPS
 
 Array = NDArray[np.float64]
 Vec3 = tuple[float, float, float]
@@ -76,7 +77,8 @@ TUMBLE_SPIN_S = 4.0  # a turn of the tumble's spin (90 deg/s), drawn within +-20
 TUMBLE_SWING_S = 48.0  # the spin axis tilts from the field's direction to its opposite and back
 EASE_S = 1.0  # the tumble's smooth start
 NUDGE_DEG, NUDGE_S = 8.0, 0.4
-BLOCK_S = 0.3  # simulated at once: less than a reaction time, so a prompt never changes a block computed
+BLOCK_S = 1.0  # simulated at once: a block's own cost is about that of 100 samples; a prompt that changes
+# the motion within a block computed has it computed again (SimulatedMaker._replan), the same up to the change
 FACE_AXES = {"+x": (1.0, 0.0, 0.0), "-x": (-1.0, 0.0, 0.0), "+y": (0.0, 1.0, 0.0),
              "-y": (0.0, -1.0, 0.0), "+z": (0.0, 0.0, 1.0), "-z": (0.0, 0.0, -1.0)}
 
@@ -268,8 +270,7 @@ class SimulatedMaker:
         q = data.truth.q_sensors[:, 0]
         if self.magnet is not None:
             mag = mag + Q.rotate(Q.conjugate(q), self.magnet.at(data.t))
-        s = BoardSettings()
-        counted = zip(counts(acc, acc_lsb(s.acc_fs_g)).tolist(), counts(gyr, gyr_lsb(s.gyr_fs_dps)).tolist(),
+        counted = zip(counts(acc, acc_lsb(ACC_FS_G)).tolist(), counts(gyr, gyr_lsb(GYR_FS_DPS)).tolist(),
                       counts(mag, MAG_UT_PER_COUNT).tolist())
         readings = [SensorReading(acc=(a[0], a[1], a[2]), gyr=(g[0], g[1], g[2]), mag=(m[0], m[1], m[2]),
                                   flex_deg=0.0, flex_adc=int(f), q=(w[0], w[1], w[2], w[3]))
@@ -283,8 +284,7 @@ class SimulatedMaker:
         does (:func:`tracker.board.quantise`), at its default full scales."""
         self.reading(t)
         acc, gyr, mag, flex = self._sample(self.now)[1]
-        s = BoardSettings()
-        return RawSample(t, round(t * 1e6) & 0xFFFFFFFF, seq & 0xFFFF, acc, gyr, mag, flex, s.acc_fs_g, s.gyr_fs_dps)
+        return RawSample(t, round(t * 1e6) & 0xFFFFFFFF, seq & 0xFFFF, acc, gyr, mag, flex, ACC_FS_G, GYR_FS_DPS)
 
     # ------------------------------------------------------------------ following the prompts
 

@@ -52,7 +52,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from functools import cached_property
 from typing import Callable
 
 import numpy as np
@@ -133,20 +132,19 @@ class Chain:
     links: tuple[LinkSpec, ...]
     sensors: tuple[SensorSpec, ...]
     flex_link: int | None = None  # the link whose hinge the flex sensor spans (None: none)
+    hinges: Array = field(init=False, repr=False, compare=False)  # the hinge axes after the root, (L - 1, 3)
+    # Where each joint after the root, then each sensor, sits on the link it hangs from: that link's
+    # index and the vector from its joint in its frame, (L - 1 + S, 3).
+    arms: tuple[list[int], Array] = field(init=False, repr=False, compare=False)
 
-    @cached_property
-    def hinges(self) -> Array:
-        """The hinge axes of the links after the root, (L - 1, 3)."""
-        return np.reshape([link.hinge for link in self.links[1:]], (-1, 3))
-
-    @cached_property
-    def arms(self) -> tuple[list[int], Array]:
-        """Where each joint after the root, then each sensor, sits on the link it hangs from:
-        that link's index and the vector from its joint in its frame, (L - 1 + S, 3)."""
+    def __post_init__(self) -> None:
+        # Built here, not as a cached_property: the compiled build turns one into a plain property,
+        # which would build them again for every block of samples.
+        object.__setattr__(self, "hinges", np.reshape([link.hinge for link in self.links[1:]], (-1, 3)))
         reaches = [link.length_m * np.asarray(link.direction) for link in self.links[:-1]]
         positions = [np.asarray(s.position_m, dtype=float) for s in self.sensors]
         index = list(range(len(self.links) - 1)) + [s.link for s in self.sensors]
-        return index, np.reshape(reaches + positions, (-1, 3))
+        object.__setattr__(self, "arms", (index, np.reshape(reaches + positions, (-1, 3))))
 
 
 @dataclass(frozen=True)

@@ -11,8 +11,13 @@ motion to the sensor simulator. The game then learns what the arm did only
 from the board's decoded samples, as with a person.
 
 How it plays:
-  Threat. Each walking zombie's threat is its time to contact: the distance
-  left to its reach, over its speed. The most threatening one is the target.
+  Sight. It sees only the zombies in its line of sight (from its eyes to a
+  zombie's chest, over low walls and cars, never through a building or a
+  wall: :func:`~game.world.sight.sees`), each looked at again every
+  ``LOOK_S`` (a glance, not a frame-by-frame scan), and throws only at those.
+  Threat. Each seen zombie's threat is its time to contact: the length of
+  its way round the obstacles left to its reach, over its speed. The most
+  threatening one is the target.
   Facing. Outside +-45 deg of the body's facing, the bot first turns toward
   the target (the keyboard's turn keys). It never turns while the arm is up,
   which would swing the aim.
@@ -22,9 +27,18 @@ How it plays:
   players lead a walking zombie to where it will be at the launch. Each
   angle gets Gaussian noise. With reloads, one raise throws at the next
   targets too.
-  Walking. When a zombie would reach it within ``FLEE_S`` (2.5 s), it walks away from
-  the near zombies and back toward the middle of the arena until it is a
-  third further clear. It does not walk during a throw (which would swing the aim
+  Walking. When a zombie (seen or not: it hears them) would reach it within
+  ``FLEE_S`` (2.5 s), it walks away until it is a third further clear. Of
+  ``FLEE_WAYS`` headings it takes the one that best combines going away from
+  the near zombies, open ground ahead (walls within ``FLEE_LOOK_M``) and the
+  way round the obstacles back to the start square (``HOME_PULL``), so it
+  does not run into a dead end. Cornered (no heading clear for
+  ``CORNERED_M`` but those into the zombies, or fleeing moved it less than
+  ``STUCK_M`` in ``STUCK_S``:
+  bodies in the way), it stands and throws for ``FIGHT_S``. With zombies about
+  but none in sight (nor a ball's way to one), it walks back to the start
+  square, the open ground with the longest views, along the way round the
+  obstacles. It does not walk during a throw (which would swing the aim
   off), unless a zombie is about to strike.
   Fatigue. Per minute played, its movements slow by ``fatigue_per_min`` and
   its aim noise grows by the same fraction.
@@ -40,12 +54,27 @@ import numpy as np
 
 from ..world.arena import Arena
 from ..world.arena_model import Controls, Player, Zombie
+from ..world.collision import sweep_sphere
+from ..world.navigation import NavSettings, Navigator
+from ..world.sight import sees
+from ..world.town import Town
 from .motion_model import SPEED_RANGE, PlayerProfile, Script, TrueLaunch
 
 CHEST_M = 1.2  # the height the bot aims at on a zombie (1.8 m tall)
+SHOULDER_M = 1.4  # about where its balls leave from
+CLOSE_M = 4.0  # a zombie this close is judged by its straight distance
 FACING_DEG = 45.0  # a target further off the body's facing is turned toward first
 NEAR_M = 6.0  # zombies within this push the fleeing bot away
-CENTRE_PULL = 0.6  # beyond this fraction of the arena's radius the fleeing bot heads inward too
+LOOK_S = 0.25  # how often the bot looks again whether a zombie is in sight
+FLEE_WAYS = 16  # the headings the fleeing bot weighs, evenly round from straight away
+FLEE_LOOK_M = 4.0  # how far along each it looks for walls
+HOME_PULL = 0.5  # the weight of the way home against going straight away and open ground
+TOWARD_COS = -0.5  # headings more than 120 deg off straight away lead into the zombies: never taken
+CORNERED_M = 1.0  # with no other heading this clear of walls the bot is cornered
+STUCK_M = 0.3  # or when fleeing moved it less than this in STUCK_S (bodies in the way)
+STUCK_S = 1.0
+FIGHT_S = 2.0  # a cornered bot stands and throws for this long before trying to flee again
+WAIST_M = 0.9  # the height at which its way ahead is tested against obstacles
 THROW_S = 2.7  # the typical time from the decision to a launch at speed 1 (reach, load, spin)
 RELOAD_S = 1.3  # and from one launch to the next of the same raise
 IDLE_S = (1.0, 2.5)  # fidgeting between waves, seconds
@@ -105,6 +134,10 @@ class Bot:
         self._step_seen = ""  # the calibration step the bot last reacted to
         self._lowered_at: float | None = None  # when the arm is back down after calibrating
         self.fleeing = False
+        self._seen: dict[int, tuple[float, bool]] = {}  # zombie id: (when looked at, in sight)
+        self._home: Navigator | None = None  # the way back to the town's start square
+        self._flee_mark: tuple[float, float, float] | None = None  # (t, x, y) where the last flight was checked
+        self._fight_until = -math.inf  # cornered: it throws instead of fleeing until then
 
     @property
     def launches(self) -> list[TrueLaunch]:
@@ -144,22 +177,29 @@ class Bot:
         player = arena.player
         walking = arena.alive_zombies
         busy = t < self.script.now  # the arm is on what was planned
-        soonest = min((self._time_to_contact(z, player, arena) for z in walking), default=math.inf)
+        soonest = min((self._time_to_contact(z, arena) for z in walking), default=math.inf)
         # Walk away from a close zombie until well clear (hysteresis); mid-throw only when it is
         # about to strike, since walking swings a throw's aim off its target.
         self.fleeing = soonest < (FLEE_UNTIL * FLEE_S if self.fleeing else FLEE_S)
-        if self.fleeing and (not busy or soonest < STRIKE_S):
-            return Action(controls=self._flee(player, walking, arena.settings.arena_radius_m))
+        if self.fleeing and (not busy or soonest < STRIKE_S) and t >= self._fight_until:
+            way = self._flee(arena)
+            if way is not None and not self._stuck(t, player):
+                return Action(controls=way)
+            self._fight_until = t + FIGHT_S  # cornered: it stands and throws
+        self._flee_mark = None  # not walking away this frame: the next flight is judged afresh
         if busy:
             return Action()
         minutes = (t - (self.play_started or t)) / 60.0
         self._tire(minutes)
         self.script.forget_before(t - FORGET_S)
-        if not walking:
+        visible = self._in_sight(t, walking, arena)
+        if not visible and walking and not self._home_reached(arena):
+            return Action(controls=self._go_home(arena))  # back to the open square, where it sees them
+        if not visible:
             self.script.wait_until(start)
             self.script.idle(float(self.rng.uniform(*IDLE_S)))
             return Action()
-        threats = sorted(walking, key=lambda z: self._time_to_contact(z, player, arena))
+        threats = sorted(visible, key=lambda z: self._time_to_contact(z, arena))
         ahead = (start - t) + THROW_S / self.script.profile.speed
         aims = []
         for k, zombie in enumerate(threats[:1 + self.skill.reloads]):
@@ -182,9 +222,61 @@ class Bot:
         speed = self.profile.speed / (1.0 + self.skill.fatigue_per_min * minutes)
         self.script.profile = replace(self.profile, speed=_speed(speed))
 
+    def _in_sight(self, t: float, walking: list[Zombie], arena: Arena) -> list[Zombie]:
+        """The walking zombies the bot sees and could hit (nothing in a ball's way from its shoulder
+        to the chest: a lamp post hides nothing but stops a ball), each looked at again every ``LOOK_S``."""
+        p, seen, out = arena.player, self._seen, []
+        town, radius = arena.town, arena.settings.ball_radius(1.0)
+        for z in walking:
+            looked = seen.get(z.id)
+            if looked is None or t - looked[0] >= LOOK_S:
+                clear = sees(town, (p.x, p.y), (z.x, z.y)) and sweep_sphere(
+                    town, (p.x, p.y, SHOULDER_M), (z.x, z.y, CHEST_M), radius) is None
+                looked = seen[z.id] = (t, clear)
+            if looked[1]:
+                out.append(z)
+        if len(seen) > 4 * len(walking) + 16:  # forget the zombies gone
+            ids = {z.id for z in walking}
+            self._seen = {k: v for k, v in seen.items() if k in ids}
+        return out
+
+    def _home_reached(self, arena: Arena) -> bool:
+        p, town = arena.player, arena.town
+        return math.hypot(p.x - town.start[0], p.y - town.start[1]) <= max(1.0, town.start_radius_m)
+
+    def _go_home(self, arena: Arena) -> Controls:
+        """Walk toward the start square along the way round the obstacles (the open ground with the
+        longest views, where zombies come into sight)."""
+        hx, hy = self._way_home(arena)
+        return _walk_toward(arena.player, hx, hy)
+
+    def _way_home(self, arena: Arena) -> tuple[float, float]:
+        """From the player toward the next waypoint of the way round the obstacles to the start square."""
+        p, town = arena.player, arena.town
+        if self._home is None or self._home.town is not town:
+            self._home = Navigator(town, NavSettings(agent_radius_m=arena.settings.player_radius_m))
+            self._home.set_goal(*town.start)
+        tx, ty, _ = self._home.waypoint(p.x, p.y)
+        return tx - p.x, ty - p.y
+
+    def _stuck(self, t: float, player: Player) -> bool:
+        """Whether fleeing moved the player less than ``STUCK_M`` over the last ``STUCK_S`` (a mark
+        older than twice that is not of this flight: the judgement starts again)."""
+        mark = self._flee_mark
+        if mark is not None and t - mark[0] < STUCK_S:
+            return False
+        self._flee_mark = (t, player.x, player.y)
+        return mark is not None and t - mark[0] <= 2 * STUCK_S and \
+            math.hypot(player.x - mark[1], player.y - mark[2]) < STUCK_M
+
     @staticmethod
-    def _time_to_contact(zombie: Zombie, player: Player, arena: Arena) -> float:
-        gap = math.hypot(zombie.x - player.x, zombie.y - player.y) - arena.settings.contact_distance_m
+    def _time_to_contact(zombie: Zombie, arena: Arena) -> float:
+        """Seconds until ``zombie`` reaches the player along its way round the obstacles (within
+        ``CLOSE_M``, or where the navigator knows no way, straight: a zombie that close walks straight)."""
+        p = arena.player
+        straight = math.hypot(zombie.x - p.x, zombie.y - p.y)
+        way = straight if straight < CLOSE_M else arena.navigator.path_length(zombie.x, zombie.y)
+        gap = (way if math.isfinite(way) else straight) - arena.settings.contact_distance_m
         return max(0.0, gap) / max(zombie.speed, 1e-6)
 
     def _aim(self, zombie: Zombie, arena: Arena, shoulder: Sequence[float], ahead_s: float
@@ -205,26 +297,62 @@ class Bot:
         elevation = 90.0 + math.degrees(math.atan2(dz, math.hypot(right, forward)))
         return azimuth, elevation
 
-    @staticmethod
-    def _flee(player: Player, walking: list[Zombie], arena_radius_m: float) -> Controls:
-        """Walk away from the near zombies, and inward near the arena's edge."""
+    def _flee(self, arena: Arena) -> Controls | None:
+        """The walking that takes the player away from the near zombies along open ground, round
+        the obstacles toward the start square; None when cornered (no heading clear for ``CORNERED_M``
+        but those more than 120 deg off straight away, into the zombies).
+
+        Each heading ``u`` scores ``u . away + clear / FLEE_LOOK_M + HOME_PULL u . home``: ``away``
+        the unit sum of the near zombies' pushes (each 1 / distance, along the line from it),
+        ``clear`` how far the body goes along ``u`` before a wall (at most ``FLEE_LOOK_M``), ``home``
+        the unit way to the start square's next waypoint.
+        """
+        player, town, radius = arena.player, arena.town, arena.settings.player_radius_m
         wx = wy = 0.0
-        for z in walking:
+        for z in arena.alive_zombies:
             dx, dy = player.x - z.x, player.y - z.y
             d2 = dx * dx + dy * dy
             if d2 < NEAR_M * NEAR_M:
                 wx, wy = wx + dx / max(d2, 0.01), wy + dy / max(d2, 0.01)
-        r = math.hypot(player.x, player.y)
-        edge = arena_radius_m * CENTRE_PULL
-        if r > edge:
-            push = math.hypot(wx, wy) or 1.0
-            wx, wy = wx - player.x / r * push, wy - player.y / r * push
-        norm = math.hypot(wx, wy)
-        if norm < 1e-9:
-            return Controls()
-        wx, wy = wx / norm, wy / norm
-        c, s = math.cos(player.yaw), math.sin(player.yaw)
-        return Controls(forward=-wx * s + wy * c, strafe=wx * c + wy * s)
+        hx, hy = self._way_home(arena)
+        away, home = _unit(wx, wy), _unit(hx, hy)
+        start = math.atan2(away[1], away[0]) if away != (0.0, 0.0) else math.atan2(home[1], home[0])
+        best, best_score = None, -math.inf
+        for k in range(FLEE_WAYS):
+            a = start + 2.0 * math.pi * k / FLEE_WAYS
+            ux, uy = math.cos(a), math.sin(a)
+            if ux * away[0] + uy * away[1] < TOWARD_COS:
+                continue  # not into the zombies
+            clear = _clear_ahead(town, player, ux, uy, radius)
+            if clear < CORNERED_M:
+                continue
+            score = ux * away[0] + uy * away[1] + clear / FLEE_LOOK_M + HOME_PULL * (ux * home[0] + uy * home[1])
+            if score > best_score:
+                best, best_score = (ux, uy), score
+        return None if best is None else _walk_toward(player, *best)
+
+
+def _unit(x: float, y: float) -> tuple[float, float]:
+    """(x, y) scaled to length 1; (0, 0) stays."""
+    norm = math.hypot(x, y)
+    return (x / norm, y / norm) if norm > 1e-9 else (0.0, 0.0)
+
+
+def _clear_ahead(town: Town, player: Player, ux: float, uy: float, radius: float) -> float:
+    """How far (m, at most ``FLEE_LOOK_M``) the player's body goes along (ux, uy) before an obstacle."""
+    ahead = (player.x + ux * FLEE_LOOK_M, player.y + uy * FLEE_LOOK_M, WAIST_M)
+    hit = sweep_sphere(town, (player.x, player.y, WAIST_M), ahead, radius)
+    return FLEE_LOOK_M if hit is None else hit[0] * FLEE_LOOK_M
+
+
+def _walk_toward(player: Player, wx: float, wy: float) -> Controls:
+    """The walking input that moves the player along (wx, wy) (world frame) without turning him."""
+    norm = math.hypot(wx, wy)
+    if norm < 1e-9:
+        return Controls()
+    wx, wy = wx / norm, wy / norm
+    c, s = math.cos(player.yaw), math.sin(player.yaw)
+    return Controls(forward=-wx * s + wy * c, strafe=wx * c + wy * s)
 
 
 def _speed(speed: float) -> float:

@@ -309,6 +309,8 @@ def _report(config: MatchConfig, bot: Bot, board: SimBoard, source: WireInput, a
     report = {
         "seed": config.seed, "difficulty": config.difficulty, "duration_s": round(t_end, 4),
         "score": int(arena.score), "kills": arena.kills, "shots": arena.shots, "hits": arena.hits,
+        "wall_hits": arena.wall_hits, "obstacle_violations": arena.obstacle_violations,
+        "town": arena.town.layout,
         "waves": arena.wave, "survived_s": round(survived, 4), "game_over": bool(arena.game_over),
         "abandoned": seen.play_start is None,  # play never began: setup gave up after MAX_SETUP_S
         "intended_launches": intended, "detected_launches": detected,
@@ -422,7 +424,8 @@ def summarise(reports: list[dict], wall_s: float) -> dict:
     simulated = sum(r["duration_s"] for r in reports)
     return {
         "matches": len(reports),
-        **{k: total(k) for k in ("kills", "shots", "hits", "intended_launches", "detected_launches",
+        **{k: total(k) for k in ("kills", "shots", "hits", "wall_hits", "obstacle_violations",
+                                 "intended_launches", "detected_launches",
                                  "false_launches", "frames_sent", "frames_decoded", "crc_errors", "dropped")},
         "launch_precision": round(matched / detected, 4) if detected else None,
         "launch_recall": round(matched / intended, 4) if intended else None,

@@ -447,6 +447,7 @@ class Play:
         game = self.game
         game.renderer.draw_world(surface, game.arena, game.avatar, 1.0 / max(game.fps, 30.0))
         game.renderer.draw_hud(surface, game.hud())
+        game.renderer.draw_minimap(surface, game.arena)
         if game.show_plots and game.tracker:
             w, h = surface.get_size()
             game.renderer.draw_plots(surface, game.tracker.plot_series(), pygame.Rect(w - 420, h - 330, 400, 300))
@@ -510,7 +511,7 @@ def charge_hum(game: Game) -> None:
 
 
 def sounds(game: Game, events) -> None:
-    names = {"launch": "launch", "hit": "hit", "miss": "miss", "hurt": "hurt", "wave": "wave",
+    names = {"launch": "launch", "hit": "hit", "miss": "miss", "wall": "wall", "hurt": "hurt", "wave": "wave",
              "game_over": "game_over"}
     for e in events:
         if e.kind == "spawn":
@@ -546,6 +547,7 @@ class Pause:
         r = self.game.renderer
         r.draw_world(surface, self.game.arena, self.game.avatar, 0.0)
         r.draw_hud(surface, self.game.hud())
+        r.draw_minimap(surface, self.game.arena)
         r.draw_banner(surface, self.reason, YELLOW)
         keys = "K: play on keyboard, Q: menu" if self.resume_when else "Esc: resume, Q: menu"
         w, h = surface.get_size()
@@ -746,7 +748,7 @@ class BoardSetupScreen:
     def draw(self, surface: pygame.Surface) -> None:
         game = self.game
         r = game.renderer
-        r.draw_backdrop(surface)
+        r.draw_backdrop(surface, game.arena)
         w, h = surface.get_size()
         setup = self.setup
         phase = setup.phase if setup else ACCEL

@@ -12,7 +12,7 @@ import statistics
 import tempfile
 import time
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Sequence
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
@@ -23,6 +23,8 @@ import pygame  # noqa: E402
 from tracker.atomic import AtomicFile  # noqa: E402
 
 from ..world.arena_model import Controls, Zombie, ZombieState  # noqa: E402
+from ..world.collision import inside  # noqa: E402
+from ..world.town import make_town  # noqa: E402
 from .app import App, BoardSetupScreen, Calibration, GameOver, Menu, Pause, Play, Settings  # noqa: E402
 from .board_setup import ACCEL_DONE, FAILED, MAG, MAG_DONE, MakerInput  # noqa: E402
 from .preferences import Preferences  # noqa: E402
@@ -39,26 +41,83 @@ def _key(key: int, down: bool = True) -> pygame.event.Event:
     return pygame.event.Event(pygame.KEYDOWN if down else pygame.KEYUP, key=key, mod=0, unicode="")
 
 
+def densest_view(seeds: Sequence[int] = range(8), reach_m: float = 30.0, half_fov_deg: float = 45.0,
+                 step_m: float = 2.0) -> tuple[int, float, float, float]:
+    """The densest part of the towns of ``seeds``: (seed, x, y, yaw) of the player who sees the most obstacles.
+
+    The player stands on open ground (clear of obstacles by a metre) every
+    ``step_m`` across the town and faces each of eight ways; the camera
+    behind him (:class:`~game.ui.render.camera.CameraRig`'s 4.5 m) must stand
+    clear too. Counted: the obstacles whose centre lies within ``reach_m``
+    of the camera and ``half_fov_deg`` of the way he faces (the view's half
+    width at 16:9 and 60 degrees high is 46 degrees). Ties go to the first
+    seed, place and way found.
+    """
+    best: tuple[int, int, float, float, float] | None = None
+    yaws = np.arange(8) * (math.pi / 4)
+    fx, fy = -np.sin(yaws), np.cos(yaws)  # yaw 0 faces +y
+    cos_half = math.cos(math.radians(half_fov_deg))
+    for seed in seeds:
+        town = make_town(seed)
+        centres = np.array([((o.x0 + o.x1) / 2, (o.y0 + o.y1) / 2) for o in town.obstacles]).reshape(-1, 2)
+        h = town.half_size_m - step_m
+        for x in np.arange(-h, h + 1e-9, step_m).tolist():
+            for y in np.arange(-h, h + 1e-9, step_m).tolist():
+                if inside(town, x, y, 1.0, 0.0):
+                    continue
+                cx, cy = x - 4.5 * fx, y - 4.5 * fy  # the camera, each way
+                dx, dy = centres[None, :, 0] - cx[:, None], centres[None, :, 1] - cy[:, None]
+                dist = np.hypot(dx, dy)
+                ahead = (dx * fx[:, None] + dy * fy[:, None]) > cos_half * dist
+                counts = ((dist < reach_m) & ahead).sum(axis=1)
+                for k in np.argsort(-counts, kind="stable").tolist():
+                    if best is not None and counts[k] <= best[0]:
+                        break
+                    if abs(cx[k]) < town.half_size_m and abs(cy[k]) < town.half_size_m \
+                            and not inside(town, float(cx[k]), float(cy[k]), 0.3, 0.0):
+                        best = (int(counts[k]), seed, x, y, float(yaws[k]))
+                        break
+    if best is None:
+        raise ValueError("no place in these towns where the player and his camera stand clear")
+    return best[1:]
+
+
+def town_scene(app: App, seed: int, x: float, y: float, yaw: float) -> None:
+    """A new round in the town of ``seed``, the player at (x, y) facing ``yaw``."""
+    app.game.seed = seed
+    app.game.new_round()
+    player = app.game.arena.player
+    player.x, player.y, player.yaw = x, y, yaw
+
+
 def busy_arena(app: App, zombies: int = 60, balls: int = 3, seed: int = 1, health: float = 1e9) -> None:
-    """A mid-wave scene: a ring of zombies, some blown into the air, balls in flight.
+    """A mid-wave scene around the player: zombies on the open ground all round him (from 4 to 16 m
+    away), some blown into the air, balls in flight.
 
     ``health``: the player's; a benchmark makes it endless so no game over ends the run.
     """
     arena = app.game.arena
+    town, p = arena.town, arena.player
     rng = np.random.default_rng(seed)
     arena.wave, arena.score = max(arena.wave, 3), max(arena.score, 1200)
-    arena.player.health = health
+    p.health = health
     arena.zombies = []
-    for i in range(zombies):
+    fx, fy = -math.sin(p.yaw), math.cos(p.yaw)
+    while len(arena.zombies) < zombies:
         r, a = rng.uniform(4, 16), rng.uniform(0, 2 * math.pi)
-        z = Zombie(i, r * math.cos(a), r * math.sin(a), speed=rng.uniform(0.6, 1.1), health=1,
-                   phase=rng.uniform(0, 6.3), heading=a + math.pi)
+        x, y = p.x + r * math.cos(a), p.y + r * math.sin(a)
+        if abs(x) > town.half_size_m - 1 or abs(y) > town.half_size_m - 1 or inside(town, x, y, 0.4, 0.0):
+            continue
+        i = len(arena.zombies)
+        z = Zombie(i, x, y, speed=rng.uniform(0.6, 1.1), health=1, phase=rng.uniform(0, 6.3), heading=a + math.pi)
         if i % 12 == 0:  # a few already blown into the sky
             z.state, z.z, z.velocity, z.spin_rate = ZombieState.FLYING, rng.uniform(2, 6), (0.0, 2.0, 6.0), 5.0
         arena.zombies.append(z)
     for k in range(balls):
-        direction = (math.sin(0.4 * (k - 1)), math.cos(0.4 * (k - 1)), 0.05)
-        arena.launch((0.3, 0.5 + 2.0 * k, 1.4), direction, 0.4 + 0.3 * k)
+        turn = 0.4 * (k - 1)
+        direction = (-math.sin(p.yaw + turn), math.cos(p.yaw + turn), 0.05)
+        along = 0.5 + 2.0 * k
+        arena.launch((p.x + fx * along + 0.3 * fy, p.y + fy * along - 0.3 * fx, 1.4), direction, 0.4 + 0.3 * k)
     for _ in range(8):  # give the balls trails
         arena.step(Controls())
 
@@ -93,7 +152,7 @@ def shots(out: str | os.PathLike) -> list[Path]:
         for _ in range(150):
             app.frame([], 1 / 60)
         save("calibration")
-        app.game.new_round()
+        town_scene(app, *densest_view())
         app.screen = Play(app.game)
         busy_arena(app, zombies=24, health=72.0)
         _raise_and_spin(app)
@@ -159,10 +218,11 @@ def board_setup_shots(app: App, save: Callable[[str], None]) -> None:
 
 
 def bench(frames: int = 300, progress: Callable[[str], None] | None = None) -> dict:
-    """Frame time with a busy arena, and input latency from a virtual board."""
+    """Frame time with a busy arena in the densest part of the town (:func:`densest_view`), and input
+    latency from a virtual board."""
     with tempfile.TemporaryDirectory() as config:
         app = _app(config)
-        app.game.new_round()
+        town_scene(app, *densest_view())
         app.screen = Play(app.game)
         busy_arena(app)
         _raise_and_spin(app)

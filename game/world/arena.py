@@ -41,9 +41,8 @@ moment (the fizzle's sound and flash belong there); it then fades out over
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 from enum import Enum
-from functools import cached_property
 from operator import attrgetter
 
 import numpy as np
@@ -51,11 +50,19 @@ from mypy_extensions import mypyc_attr
 
 from .arena_model import (Ball, BallState, ArenaEvent, Controls, HeldBall, Player, Vec3, Zombie,
                           ZombieState)
+from .collision import inside, push_out, sweep_sphere
+from .navigation import NavSettings, Navigator
+from .town import Town, make_town
 
 TAU = 2.0 * math.pi
 HELD_STATES = ("idle", "loading", "spinning", "fired")
 STOP_FRACTION = 0.9  # a zombie stops walking at this fraction of the contact distance (it stays in reach)
-BALL_EXIT_MARGIN_M = 1.0  # a ball this far beyond the arena's edge has left it (zombies stand on the edge)
+BALL_EXIT_MARGIN_M = 1.0  # a ball this far beyond the town's edge has left it (zombies come in at the edge)
+NAV_EVERY = 4  # a zombie asks the navigator for its waypoint every this many steps (30 Hz), by turns
+WAIST_M = 0.9  # the height at which a zombie's straight way to the player is tested against obstacles
+STRAIGHT_M2 = 8.0 ** 2  # within 8 m a zombie walks straight at the player when nothing is in the way
+# (farther, the navigator's waypoints: their bends cost little over a long way, a sweep a lot)
+INSIDE_TOLERANCE_M = 1e-6  # a body closer than its radius minus this to an obstacle stands inside it
 _TINY = 1e-24  # squared length (m^2) below which a segment is a point
 _PARALLEL = 1e-12  # sin^2 of the angle below which two segments count as parallel
 
@@ -65,11 +72,34 @@ _NON_NEGATIVE = ("zombie_speed_growth", "tough_chance_per_wave", "knockback_m", 
                  "ball_speed_per_charge_m_s", "blown_push_m_s", "spin_min", "score_per_hit",
                  "score_wave_bonus", "held_spin_rate", "held_spin_rate_spinning", "hurt_interval_s",
                  "hurt_flash_s", "contact_damage_per_s", "zombie_speed_min", "zombie_stride_m")
-_POSITIVE = ("arena_radius_m", "dt_s", "max_catch_up_s", "player_speed_m_s", "player_turn_rate",
+_POSITIVE = ("player_radius_m", "dt_s", "max_catch_up_s", "player_speed_m_s", "player_turn_rate",
              "player_max_health", "zombie_radius_m", "zombie_height_m", "zombie_speed_cap",
              "zombie_turn_rate", "contact_distance_m", "knockback_s", "spawn_interval_s",
              "spawn_interval_min_s", "ball_radius_m", "ball_speed_m_s", "ball_max_flight_s", "ball_fade_s",
              "gravity", "blown_up_min_m_s", "flying_max_s", "flying_max_height_m")
+
+
+class _PerStep:
+    """Constants of the fixed step derived from :class:`ArenaSettings`, so that
+    :meth:`Arena.step` does not work them out again 120 times a second. Each is
+    the very expression the step used, so the floats are the same."""
+
+    __slots__ = ("player_step", "stop", "phase_per_m", "max_turn", "knock_decay", "fall", "gap", "gap2",
+                 "reach2", "ball_fall", "fade_step")
+
+    def __init__(self, s: ArenaSettings) -> None:
+        dt = s.dt_s
+        self.player_step = s.player_speed_m_s * dt  # metres walked per step at full input
+        self.stop = STOP_FRACTION * s.contact_distance_m  # a zombie walks no closer than this
+        self.phase_per_m = TAU / s.zombie_stride_m if s.zombie_stride_m > 0 else 0.0
+        self.max_turn = s.zombie_turn_rate * dt  # a zombie's largest turn per step
+        self.knock_decay = math.exp(-dt / s.knockback_s)  # a knock-back slide's speed left after a step
+        self.fall = s.gravity * dt  # a flying zombie's vertical speed lost per step
+        self.gap = 2.0 * s.zombie_radius_m  # two walking zombies closer than this are pushed apart
+        self.gap2 = self.gap * self.gap
+        self.reach2 = s.contact_distance_m ** 2
+        self.ball_fall = s.ball_gravity * dt
+        self.fade_step = dt / s.ball_fade_s  # a missed ball's fade per step
 
 
 @mypyc_attr(native_class=False)  # a plain class even when compiled (README, "The compiled build")
@@ -78,13 +108,14 @@ class ArenaSettings:
     """Every tunable of the arena, with its default.
 
     World and clock:
-      ``arena_radius_m`` 18: the round arena's radius; the player stays inside,
-      zombies come in from its edge.
+      The town (:mod:`game.world.town`, one per match from its seed): the
+      player and the zombies walk its streets, zombies come in at its edges
+      and alleys, walls stop bodies and balls.
       ``dt_s`` 1/120: the fixed logic step.
       ``max_catch_up_s`` 0.25: the most real time one :meth:`Arena.advance` catches up.
     Player:
       ``player_speed_m_s`` 3 (walking), ``player_turn_rate`` 2.5 rad/s,
-      ``player_max_health`` 100.
+      ``player_max_health`` 100; ``player_radius_m`` 0.35: the body, against walls.
       ``contact_distance_m`` 0.9: a walking zombie whose centre is this close
       (horizontally) to the player's touches him (body 0.35 + zombie 0.35 +
       reach 0.2) and does ``contact_damage_per_s`` 15 of health a second.
@@ -107,8 +138,9 @@ class ArenaSettings:
       ``first_wave_delay_s`` 2: from the start to wave 1.
       ``spawn_interval_s`` 1.2: between two zombies of wave 1, times
       ``spawn_interval_decay`` 0.9 per wave, at least ``spawn_interval_min_s`` 0.4.
-      Zombies spawn on the arena's edge at random angles, at least
-      ``spawn_clearance_m`` 4 from the player (a few tries, else the farthest).
+      Zombies spawn at the town's spawn points (street ends at its edge, alleys)
+      drawn at random, at least ``spawn_clearance_m`` 4 from the player (a few
+      tries, else the farthest).
       ``max_walking`` 60: no spawn while this many walk (the rest wait their turn).
       ``wave_pause_s`` 4: when every zombie of a wave has spawned and none
       walks any more, the next wave starts after this pause.
@@ -132,12 +164,12 @@ class ArenaSettings:
     ``held_spin_rate_spinning`` 20 * (1 + charge) while the gesture spins it.
     """
 
-    arena_radius_m: float = 18.0
     dt_s: float = 1.0 / 120.0
     max_catch_up_s: float = 0.25
     player_speed_m_s: float = 3.0
     player_turn_rate: float = 2.5
     player_max_health: float = 100.0
+    player_radius_m: float = 0.35
     contact_distance_m: float = 0.9
     contact_damage_per_s: float = 15.0
     hurt_interval_s: float = 0.5
@@ -184,9 +216,12 @@ class ArenaSettings:
     score_wave_bonus: float = 0.25
     held_spin_rate: float = 3.0
     held_spin_rate_spinning: float = 20.0
+    _per_step: _PerStep = field(init=False, repr=False, compare=False)  # what every fixed step uses
 
     def __post_init__(self) -> None:
         for f in fields(self):
+            if not f.init:
+                continue
             value = getattr(self, f.name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise ValueError(f"{f.name} must be a finite number, not {value!r}")
@@ -222,13 +257,13 @@ class ArenaSettings:
              f"({self.blown_up_max_m_s})"),
             (self.spin_min <= self.spin_max,
              f"spin_min ({self.spin_min}) must not be above spin_max ({self.spin_max})"),
-            (self.spawn_clearance_m < 2 * self.arena_radius_m,
-             f"spawn_clearance_m ({self.spawn_clearance_m}) must be below the arena's diameter "
-             f"({2 * self.arena_radius_m})"),
         )
         for ok, message in checks:
             if not ok:
                 raise ValueError(message)
+        # Worked out here, not as a cached_property: the compiled build turns one into a plain
+        # property, which would work them out again at every use.
+        object.__setattr__(self, "_per_step", _PerStep(self))
 
     # ------------------------------------------------------------ derived
 
@@ -262,36 +297,6 @@ class ArenaSettings:
         """Points for one hit with a ball of ``charge`` in wave ``wave``."""
         multiplier = 1.0 + self.score_wave_bonus * max(0, wave - 1)
         return int(round(self.score_per_hit * (1.0 + charge) * multiplier))
-
-    @cached_property
-    def _per_step(self) -> _PerStep:
-        """The numbers every fixed step uses, worked out once per (frozen) settings."""
-        return _PerStep(self)
-
-
-class _PerStep:
-    """Constants of the fixed step derived from :class:`ArenaSettings`, so that
-    :meth:`Arena.step` does not work them out again 120 times a second. Each is
-    the very expression the step used, so the floats are the same."""
-
-    __slots__ = ("player_step", "stop", "phase_per_m", "max_turn", "knock_decay", "fall", "gap", "gap2",
-                 "radius2", "reach2", "ball_fall", "ball_exit2", "fade_step")
-
-    def __init__(self, s: ArenaSettings) -> None:
-        dt = s.dt_s
-        self.player_step = s.player_speed_m_s * dt  # metres walked per step at full input
-        self.stop = STOP_FRACTION * s.contact_distance_m  # a zombie walks no closer than this
-        self.phase_per_m = TAU / s.zombie_stride_m if s.zombie_stride_m > 0 else 0.0
-        self.max_turn = s.zombie_turn_rate * dt  # a zombie's largest turn per step
-        self.knock_decay = math.exp(-dt / s.knockback_s)  # a knock-back slide's speed left after a step
-        self.fall = s.gravity * dt  # a flying zombie's vertical speed lost per step
-        self.gap = 2.0 * s.zombie_radius_m  # two walking zombies closer than this are pushed apart
-        self.gap2 = self.gap * self.gap
-        self.radius2 = s.arena_radius_m * s.arena_radius_m
-        self.reach2 = s.contact_distance_m ** 2
-        self.ball_fall = s.ball_gravity * dt
-        self.ball_exit2 = (s.arena_radius_m + BALL_EXIT_MARGIN_M) ** 2
-        self.fade_step = dt / s.ball_fade_s  # a missed ball's fade per step
 
 
 # ---------------------------------------------------------------- geometry
@@ -390,10 +395,13 @@ class Arena:
     ``step``/``advance``. All randomness comes from ``rng``, seeded by
     ``seed``: the same seed and inputs give the same game.
 
-    State the renderer reads: ``player``, ``zombies``, ``balls``, ``held``,
-    ``score``, ``wave``, ``time``, ``game_over``; tallies for reports:
-    ``shots`` (balls launched), ``hits`` (balls that struck a zombie),
-    ``kills`` (zombies blown into the sky); :attr:`alive_zombies`,
+    State the renderer reads: ``town`` (and its ``navigator``), ``player``,
+    ``zombies``, ``balls``, ``held``, ``score``, ``wave``, ``time``,
+    ``game_over``; tallies for reports: ``shots`` (balls launched), ``hits``
+    (balls that struck a zombie), ``kills`` (zombies blown into the sky),
+    ``wall_hits`` (balls stopped by an obstacle), ``obstacle_violations``
+    (steps in which the player or a walking zombie stood inside an obstacle:
+    walls push bodies out, so it stays 0); :attr:`alive_zombies`,
     :attr:`wave_progress`, :attr:`next_wave_in`, :attr:`interpolation`. A
     walking zombie's ``velocity`` is its knock-back slide (zero when none); a
     flying one's, its flight. A zombie marked GONE is removed at the next step.
@@ -402,15 +410,19 @@ class Arena:
       "launch"    the ball's origin; its charge.
       "hit"       the ball's centre at its closest approach to the body; the points scored.
       "miss"      where the ball stopped (it fades there); its charge.
+      "wall"      where the ball struck an obstacle (it fades there); its charge.
       "hurt"      the player, 1 m up; his health left (at most one every ``hurt_interval_s``).
       "spawn"     the zombie on the ground; its id.
       "wave"      the origin; the wave's number (wave 1 too, ``first_wave_delay_s`` after the start).
       "game_over" the player; the final score.
     """
 
-    def __init__(self, settings: ArenaSettings | None = None, seed: int = 0) -> None:
+    def __init__(self, settings: ArenaSettings | None = None, seed: int = 0, town: Town | None = None) -> None:
+        """``town``: the same town for every match (tests, tutorials); None: each match's own, from its
+        seed (:func:`~game.world.town.make_town`)."""
         self.settings = settings if settings is not None else ArenaSettings()
         self.seed = seed
+        self._fixed_town = town
         self.reset()
 
     # ------------------------------------------------------------ state
@@ -421,12 +433,18 @@ class Arena:
             self.seed = seed
         s = self.settings
         self.rng = np.random.default_rng(self.seed)
-        self.player = Player(health=float(s.player_max_health))
+        town = self._fixed_town if self._fixed_town is not None else make_town(self.seed)
+        if not town.spawn_points:
+            raise ValueError("the town has no spawn points: zombies could not come in")
+        if getattr(self, "town", None) is not town:
+            self.town = town
+            self.navigator = Navigator(town, NavSettings(agent_radius_m=s.zombie_radius_m))
+        self.player = Player(x=town.start[0], y=town.start[1], health=float(s.player_max_health))
         self.zombies: list[Zombie] = []
         self.balls: list[Ball] = []
         self.held = HeldBall()
         self.score = 0
-        self.shots = self.hits = self.kills = 0
+        self.shots = self.hits = self.kills = self.wall_hits = self.obstacle_violations = 0
         self.wave = 0
         self.ticks = 0
         self.time = 0.0
@@ -550,7 +568,9 @@ class Arena:
         self.time = self.ticks * dt
         self._move_player(controls, dt)
         self._update_wave(events, dt)
-        walking = self._move_zombies(dt)
+        walking, hemmed = self._move_zombies(dt)
+        if self._inside_obstacle(hemmed):
+            self.obstacle_violations += 1
         self._move_balls(events, dt, walking)
         self._contact(events, dt, walking)
         if not self.game_over and not self._between_waves and self._to_spawn == 0 and self._walking == 0:
@@ -576,10 +596,7 @@ class Arena:
             step = s._per_step.player_step
             x = p.x + step * (-si * forward + c * strafe)
             y = p.y + step * (c * forward + si * strafe)
-            r = math.hypot(x, y)
-            if r > s.arena_radius_m:
-                x, y = x * s.arena_radius_m / r, y * s.arena_radius_m / r
-            p.x, p.y = x, y
+            p.x, p.y = push_out(self.town, x, y, s.player_radius_m, (p.x, p.y))  # slides along walls
         if p.hurt > 0.0:
             p.hurt = max(0.0, p.hurt - dt)
 
@@ -606,13 +623,12 @@ class Arena:
                 events.append(ArenaEvent("spawn", (zombie.x, zombie.y, 0.0), float(zombie.id)))
 
     def _spawn(self) -> Zombie:
-        """A zombie of the current wave on the arena's edge, clear of the player."""
+        """A zombie of the current wave at one of the town's spawn points, clear of the player."""
         s, rng, p = self.settings, self.rng, self.player
-        radius = s.arena_radius_m
+        points = self.town.spawn_points
         best = (-1.0, 0.0, 0.0)  # (gap, x, y): any spot beats it
         for _ in range(8):
-            angle = float(rng.uniform(0.0, TAU))
-            x, y = radius * math.cos(angle), radius * math.sin(angle)
+            x, y = points[int(rng.integers(len(points)))]
             gap = math.hypot(x - p.x, y - p.y)
             if gap > best[0]:
                 best = (gap, x, y)
@@ -630,8 +646,9 @@ class Arena:
 
     # ------------------------------------------------------------ zombies
 
-    def _move_zombies(self, dt: float) -> list[Zombie]:
-        """Walk, turn and separate the walking zombies, fly the flying ones; return the walking ones.
+    def _move_zombies(self, dt: float) -> tuple[list[Zombie], list[Zombie]]:
+        """Walk, turn and separate the walking zombies, fly the flying ones; return the walking ones,
+        and those of them that stand near an obstacle (:meth:`_separate`).
 
         A zombie marked GONE at an earlier step is dropped from :attr:`zombies`
         here; one that lands now is marked GONE and dropped at the next step.
@@ -639,6 +656,9 @@ class Arena:
         """
         s, per, p = self.settings, self.settings._per_step, self.player
         px, py = p.x, p.y
+        nav, town, radius = self.navigator, self.town, s.zombie_radius_m
+        nav.set_goal(px, py)
+        turn_of = self.ticks % NAV_EVERY  # the zombies whose id has this remainder ask for a new waypoint
         stop, phase_per_m, max_turn, decay, fall = per.stop, per.phase_per_m, per.max_turn, per.knock_decay, per.fall
         max_age, max_height = s.flying_max_s, s.flying_max_height_m
         atan2, sqrt, pi, tau = math.atan2, math.sqrt, math.pi, TAU
@@ -649,6 +669,7 @@ class Arena:
             state = z.state
             if state is walking_state:
                 z.age += dt
+                z.start = (z.x, z.y)
                 kvx, kvy, _ = z.velocity
                 if kvx or kvy:  # sliding from a knock-back
                     z.x += kvx * dt
@@ -656,17 +677,24 @@ class Arena:
                     kvx, kvy = kvx * decay, kvy * decay
                     z.velocity = (kvx, kvy, 0.0) if kvx * kvx + kvy * kvy > 1e-6 else (0.0, 0.0, 0.0)
                 x, y = z.x, z.y
-                dx, dy = px - x, py - y
+                way = z.waypoint
+                if way is None or z.id % NAV_EVERY == turn_of:  # near him, straight at him if the way is clear
+                    near = (px - x) ** 2 + (py - y) ** 2 < STRAIGHT_M2
+                    clear = near and sweep_sphere(town, (x, y, WAIST_M), (px, py, WAIST_M), radius) is None
+                    way = z.waypoint = (px, py, True) if clear else nav.waypoint(x, y)
+                final = way[2]
+                dx, dy = (px - x, py - y) if final else (way[0] - x, way[1] - y)
                 d = sqrt(dx * dx + dy * dy)
-                if d > stop:
+                halt = stop if final else 0.0  # only the player himself is kept at arm's length
+                if d > halt:
                     walk = z.speed * dt
-                    if walk > d - stop:
-                        walk = d - stop
+                    if final and walk > d - halt:
+                        walk = d - halt
                     z.x = x + dx / d * walk
                     z.y = y + dy / d * walk
                     phase = z.phase + walk * phase_per_m
                     z.phase = phase - tau if phase >= tau else phase
-                if d > 1e-9:  # turn toward the player, at most max_turn; angles stay in [-pi, pi)
+                if d > 1e-9:  # turn toward its way, at most max_turn; angles stay in [-pi, pi)
                     heading = z.heading
                     turn = atan2(dy, dx) - heading
                     if turn >= pi:
@@ -700,12 +728,12 @@ class Arena:
             z.state = ZombieState.GONE
             z.age = 0.0
         self._walking = len(walking)
-        self._separate(sorted(walking, key=_by_x))
-        return walking
+        return walking, self._separate(sorted(walking, key=_by_x))
 
-    def _separate(self, walking: list[Zombie]) -> None:
-        """Push apart walking zombies closer than two radii (half the overlap each), then keep them
-        inside the arena.
+    def _separate(self, walking: list[Zombie]) -> list[Zombie]:
+        """Push apart walking zombies closer than two radii (half the overlap each), then out of the
+        town's obstacles (they slide along walls); return those that may stand near an obstacle:
+        the others stand in a cell of the town's grid with none (:meth:`_inside_obstacle` skips them).
 
         ``walking`` is sorted by x. A sweep along x pairs each zombie with the
         following ones less than two radii further in x (none when the next one
@@ -717,7 +745,6 @@ class Arena:
         xs = [z.x for z in walking]  # plain lists: much faster than attributes in the pair loop
         ys = [z.y for z in walking]
         n = len(walking)
-        moved = False
         for i in range(n - 1):
             xi = xs[i]
             if xs[i + 1] - xi >= gap:
@@ -742,24 +769,43 @@ class Arena:
                 yi -= uy
                 xs[j] += ux
                 ys[j] += uy
-                moved = True
             xs[i], ys[i] = xi, yi
-        radius, r2 = s.arena_radius_m, per.radius2
+        town, radius = self.town, s.zombie_radius_m
+        near, h = town.grid.near, town.half_size_m - radius
+        hemmed = []
         for z, x, y in zip(walking, xs, ys):
-            d2 = x * x + y * y
-            if d2 > r2:
-                k = radius / sqrt(d2)
-                z.x, z.y = x * k, y * k
-            elif moved:
-                z.x, z.y = x, y
+            if near(x, y):  # an obstacle close by (its cell's list): out of it, along its face
+                x, y = push_out(town, x, y, radius, z.start)
+                hemmed.append(z)
+            else:  # open ground: only the town's edge holds it
+                cx = -h if x < -h else h if x > h else x
+                cy = -h if y < -h else h if y > h else y
+                if cx != x or cy != y:  # held at the edge: maybe in another cell
+                    hemmed.append(z)
+                x, y = cx, cy
+            z.x, z.y = x, y
+        return hemmed
+
+    def _inside_obstacle(self, hemmed: list[Zombie]) -> bool:
+        """Whether the player or a zombie of ``hemmed`` (the walking ones that may stand near an
+        obstacle: :meth:`_separate`) stands inside an obstacle (deeper than ``INSIDE_TOLERANCE_M``)."""
+        s, town, p = self.settings, self.town, self.player
+        if inside(town, p.x, p.y, s.player_radius_m, INSIDE_TOLERANCE_M):
+            return True
+        r, near = s.zombie_radius_m, town.grid.near
+        for z in hemmed:
+            x, y = z.x, z.y
+            if near(x, y) and inside(town, x, y, r, INSIDE_TOLERANCE_M):
+                return True
+        return False
 
     # ------------------------------------------------------------ balls
 
     def _move_balls(self, events: list[ArenaEvent], dt: float, walking: list[Zombie]) -> None:
         """Fly the balls, which hit the zombies of ``walking`` (this step's, still walking); fade
         the missed ones."""
-        s, per = self.settings, self.settings._per_step
-        exit2 = per.ball_exit2
+        s, per, town = self.settings, self.settings._per_step, self.town
+        edge = town.half_size_m + BALL_EXIT_MARGIN_M
         kept = []
         for ball in self.balls:
             if ball.state is BallState.FADING:
@@ -779,21 +825,27 @@ class Arena:
             if z1 < 0.0:
                 limit = z0 / (z0 - z1) if z0 > 0.0 else 0.0
             radius = s.ball_radius(ball.charge)
+            wall = sweep_sphere(town, (x0, y0, z0), (x1, y1, z1), radius)
+            if wall is not None and wall[0] < limit:  # the wall comes first: no hit through it
+                limit = wall[0]
             hit = self._first_hit((x0, y0, z0), (x1, y1, z1), radius, limit, walking)
             if hit is not None:
                 zombie, t = hit
                 contact = (x0 + (x1 - x0) * t, y0 + (y1 - y0) * t, z0 + (z1 - z0) * t)
                 events.append(ArenaEvent("hit", contact, float(self._hit(zombie, ball))))
                 continue  # the ball is spent
+            struck = wall is not None and limit == wall[0]
             if limit < 1.0:
-                x1, y1, z1 = x0 + (x1 - x0) * limit, y0 + (y1 - y0) * limit, 0.0
+                x1, y1, z1 = x0 + (x1 - x0) * limit, y0 + (y1 - y0) * limit, (z0 + (z1 - z0) * limit) if struck else 0.0
             ball.position = (x1, y1, z1)
             ball.age += dt
             ball.trail.append(ball.position)
-            if limit < 1.0 or ball.age >= s.ball_max_flight_s or x1 * x1 + y1 * y1 > exit2:
+            if limit < 1.0 or ball.age >= s.ball_max_flight_s or abs(x1) > edge or abs(y1) > edge:
                 ball.state = BallState.FADING
                 ball.velocity = (0.0, 0.0, 0.0)
-                events.append(ArenaEvent("miss", ball.position, ball.charge))
+                if struck:
+                    self.wall_hits += 1
+                events.append(ArenaEvent("wall" if struck else "miss", ball.position, ball.charge))
             kept.append(ball)
         self.balls = kept
 

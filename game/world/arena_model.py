@@ -43,6 +43,8 @@ class Zombie:
     spin_rate: float = 0.0
     heading: float = 0.0  # the way it faces, radians from +x
     age: float = 0.0  # seconds in the current state
+    waypoint: tuple[float, float, bool] | None = None  # where it walks: (x, y, the player himself?)
+    start: tuple[float, float] = (0.0, 0.0)  # where this step found it (it stays there if wedged)
 
 
 @dataclass

@@ -333,3 +333,14 @@ def test_the_virtual_board_streams_simulated_motion_over_the_link():
         truth = quantise(source.reading(s.t_us / 1e6), s.t, s.t_us, s.seq, s.acc_fs_g, s.gyr_fs_dps)
         assert wire(s) == wire(truth)
     assert isinstance(got[0], P.RawSample)
+
+
+def test_a_chain_works_out_its_hinges_and_arms_once():
+    # Every block of samples reads them: they must not be built again at each use (as a cached_property
+    # was in the compiled build). The arm by hand: the elbow 0.30 m down the upper arm, the IMU 0.30 m.
+    chain = arm_chain(upper_arm_m=0.30, sensor_m=0.25)
+    assert chain.hinges is chain.hinges and chain.arms[1] is chain.arms[1]  # (compiled, the tuple is boxed anew)
+    assert chain.hinges.tolist() == [[0.0, 1.0, 0.0]]
+    index, vectors = chain.arms
+    assert index == [0, 0] and vectors.tolist() == [[0.0, 0.0, -0.30], [0.0, 0.0, -0.25]]
+    assert chain == arm_chain(upper_arm_m=0.30, sensor_m=0.25) and "hinges" not in repr(chain)

@@ -1,7 +1,8 @@
 """The actors: the zombies (posed all at once), the player's avatar, the balls in flight and at the hand.
 
-Each is planned as (paint function, payload) records, sorted far to near
-(painter's algorithm) and painted after the ground.
+Each is planned as a (depth, paint function, payload, probe points) record;
+the renderer sorts them far to near with the town's boxes (painter's
+algorithm) and paints them after the ground.
 """
 
 from __future__ import annotations
@@ -144,40 +145,42 @@ def _zombie_colour_table() -> list:
 _ZOMBIE_COLOURS = _zombie_colour_table()
 
 
-def _paint_blits(surface: pygame.Surface, blits: list) -> None:
-    surface.blits(blits, doreturn=False)
+def paint_blits(surface: pygame.Surface, blits: list) -> list[pygame.Rect]:
+    """Blit a list of (sprite, position, area, flags); returns the rectangles painted."""
+    return surface.blits(blits) or []
 
 
-def _paint_calls(surface: pygame.Surface, calls: list) -> None:
-    """Paint a list of (function, arguments) with the surface as first argument."""
+def paint_calls(surface: pygame.Surface, calls: list) -> list[pygame.Rect]:
+    """Paint a list of (function, arguments) with the surface as first argument; returns the rectangle round
+    what the calls report painting (pygame.draw's and blit's; pygame.gfxdraw reports none), or none."""
+    rects = []
     for fn, args in calls:
-        fn(surface, *args)
+        rect = fn(surface, *args)
+        if rect is not None:
+            rects.append(rect)
+    return [rects[0].unionall(rects[1:])] if rects else []
 
 
-def _paint_zombie(surface: pygame.Surface, record: tuple) -> None:
-    """One zombie from its record (see :meth:`Actors._zombie_records`)."""
+def _paint_zombie(surface: pygame.Surface, record: tuple) -> list[pygame.Rect]:
+    """One zombie from its record (see :meth:`Actors._zombie_records`); returns the rectangle painted."""
     legs, arms, (hip, neck, head, eye_l, eye_r), limb, torso, head_r, colours, eyes = record
     legs_c, body_c, arms_c, head_c, out_c = colours
     lines, line, circle = pygame.draw.lines, pygame.draw.line, pygame.draw.circle
+    rects = []
     if limb >= 7:  # near: a dark outline under each part, round joints
-        lines(surface, out_c, False, legs, limb + 3)
-        line(surface, out_c, hip, neck, torso + 3)
-        lines(surface, out_c, False, arms, limb + 3)
-        circle(surface, out_c, head, head_r + 2)
-    lines(surface, legs_c, False, legs, limb)
-    line(surface, body_c, hip, neck, torso)
-    lines(surface, arms_c, False, arms, limb)
+        rects += [lines(surface, out_c, False, legs, limb + 3), line(surface, out_c, hip, neck, torso + 3),
+                  lines(surface, out_c, False, arms, limb + 3), circle(surface, out_c, head, head_r + 2)]
+    rects += [lines(surface, legs_c, False, legs, limb), line(surface, body_c, hip, neck, torso),
+              lines(surface, arms_c, False, arms, limb)]
     if limb >= 9:
         r = limb // 2
-        circle(surface, legs_c, legs[1], r)
-        circle(surface, legs_c, legs[3], r)
-        circle(surface, arms_c, arms[0], r)
-        circle(surface, arms_c, arms[3], r)
-    circle(surface, head_c, head, head_r)
+        rects += [circle(surface, legs_c, legs[1], r), circle(surface, legs_c, legs[3], r),
+                  circle(surface, arms_c, arms[0], r), circle(surface, arms_c, arms[3], r)]
+    rects.append(circle(surface, head_c, head, head_r))
     if eyes and head_r >= 5:
         r = max(1, head_r // 4)
-        circle(surface, ZOMBIE_EYES, eye_l, r)
-        circle(surface, ZOMBIE_EYES, eye_r, r)
+        rects += [circle(surface, ZOMBIE_EYES, eye_l, r), circle(surface, ZOMBIE_EYES, eye_r, r)]
+    return [rects[0].unionall(rects[1:])]
 
 
 @dataclass
@@ -203,6 +206,7 @@ class Actors:
     """Plans the zombies, the balls and the avatar of a frame; the avatar's legs stride as it moves."""
 
     TOO_CLOSE = 2.0  # zombies nearer the camera than this (m) are not drawn: they would fill the view
+    THICK_M = 0.4  # how far a zombie's body reaches in front of its joints (m), and a margin
 
     def __init__(self, camera: Camera, sprites: SpriteCache, rng: np.random.Generator) -> None:
         self.camera = camera
@@ -255,12 +259,23 @@ class Actors:
                 np.concatenate([np.full(len(g.za), 0.75), [0.5 + 0.3 * b.charge for b in g.balls], np.full(n_av, 0.9)]),
                 np.concatenate([g.za[:, 2], [b.position[2] for b in g.balls], np.zeros(n_av)]))
 
+    @staticmethod
+    def body_points(g: ActorPoints) -> np.ndarray:
+        """The batch indices of the player's body, arm and held ball: what must never be hidden."""
+        idx = [np.arange(sl.start, sl.stop) for sl in g.s_parts] + [np.arange(g.s_held.start, g.s_held.stop)]
+        return np.concatenate(idx) if idx else np.zeros(0, dtype=int)
+
     def plan(self, frame: Frame, g: ActorPoints, settings) -> list:
-        """Zombies, balls, the held ball and the avatar as (paint, payload), far to near."""
-        items: list[tuple[float, object, object]] = []
+        """Zombies, balls, the held ball and the avatar as (depth, paint, payload, probes, extent), in no
+        order; ``probes`` are the batch indices of the points that say what covers it (:mod:`.occlusion`),
+        ``extent`` (a zombie's) the screen box round all it paints and its nearest depth, or None."""
+        items: list[tuple[float, object, object, list, list | None]] = []
         if len(g.za):
-            zdepth, records = self._zombie_records(frame, g.s_zj, len(g.za), g.za[:, 7] > 0)
-            items += [(d, _paint_zombie, rec) for d, rec in zip(zdepth.tolist(), records)]
+            zdepth, records, ok, extents = self._zombie_records(frame, g.s_zj, len(g.za), g.za[:, 7] > 0)
+            first = g.s_zj.start + ok * Z_JOINTS
+            probes = np.stack([first + Z_HEAD, first + Z_HIP, first + Z_FOOTL, first + Z_FOOTR], 1).tolist()
+            items += [(d, _paint_zombie, rec, pr, ext) for d, rec, pr, ext in zip(zdepth.tolist(), records, probes,
+                                                                                 extents.tolist())]
         if g.balls:
             r0, r1 = setting(settings, ("ball_radius_m",), 0.22), setting(settings, ("ball_radius_per_charge_m",), 0.1)
             radii = [r0 + r1 * float(b.charge) for b in g.balls]
@@ -269,20 +284,23 @@ class Actors:
             for i, blits in enumerate(trails):
                 j = g.s_balls.start + i
                 if frame.visible[j]:
-                    items.append((float(frame.depth[j]), _paint_blits, blits + self._plan_ball(frame, j, radii[i],
-                                                                                                 fades[i])))
+                    items.append((float(frame.depth[j]), paint_blits,
+                                  blits + self._plan_ball(frame, j, radii[i], fades[i]), [j], None))
         held, j = g.held, g.s_held.start
         if held is not None and held.visible and (held.state in ("loading", "spinning") or held.charge > 0) \
                 and frame.visible[j]:
-            items.append((float(frame.depth[j]), _paint_calls, self._plan_held(frame, held, j)))
+            items.append((float(frame.depth[j]), paint_calls, self._plan_held(frame, held, j), [j], None))
         if g.parts and frame.visible[g.s_parts[2].start + 1]:  # the chest
-            items.append((float(frame.depth[g.s_parts[2].start + 1]), _paint_calls,
-                          self._plan_avatar(frame, g.parts, g.s_parts)))
-        order = depth_order(np.array([it[0] for it in items])).tolist() if items else []
-        return [items[k][1:] for k in order]
+            chest = g.s_parts[2].start + 1
+            items.append((float(frame.depth[chest]), paint_calls, self._plan_avatar(frame, g.parts, g.s_parts),
+                          [chest, g.s_parts[-1].start], None))  # the chest and the head
+        return items
 
-    def _zombie_records(self, frame: Frame, sl: slice, n: int, flying: np.ndarray) -> tuple[np.ndarray, list]:
-        """The zombies worth drawing (in front, not too close, on screen): their depths and paint records.
+    def _zombie_records(self, frame: Frame, sl: slice, n: int, flying: np.ndarray
+                        ) -> tuple[np.ndarray, list, np.ndarray, np.ndarray]:
+        """The zombies worth drawing (in front, not too close, on screen): their depths, paint records,
+        indices (among the ``n``) and extents (x0, y0, x1, y1 pixels round all a zombie paints, and the
+        depth of its nearest joint less its thickness).
 
         A record is (leg polyline, arm polyline, [hip, neck, head, eyes] pixels,
         limb width, torso width, head radius, colours, eyes shown).
@@ -295,20 +313,20 @@ class Actors:
                             & (hi[:, 0] > -20) & (lo[:, 0] < cam.width + 20)
                             & (hi[:, 1] > -20) & (lo[:, 1] < cam.height + 20))
         if not len(ok):
-            return np.zeros(0), []
+            return np.zeros(0), [], ok, np.zeros((0, 5))
         d, flying = d[ok], flying[ok]
         hip = d[:, Z_HIP]
         ppm = cam.f / hip
         fog_level = (fog(hip) * (15.99 / 0.85)).astype(int) + 16 * flying
         pts = frame.ixy[sl].reshape(n, Z_JOINTS, 2)[ok]
+        limb, torso, head = (np.maximum(least, ppm * k).astype(int) for least, k in ((1, 0.11), (1, 0.22), (2, 0.13)))
         records = list(zip(pts[:, Z_LEGS].tolist(), pts[:, Z_ARMS].tolist(),
-                           pts[:, [Z_HIP, Z_NECK, Z_HEAD, Z_EYEL, Z_EYER]].tolist(),
-                           np.maximum(1, ppm * 0.11).astype(int).tolist(),
-                           np.maximum(1, ppm * 0.22).astype(int).tolist(),
-                           np.maximum(2, ppm * 0.13).astype(int).tolist(),
-                           [_ZOMBIE_COLOURS[i] for i in fog_level.tolist()],
+                           pts[:, [Z_HIP, Z_NECK, Z_HEAD, Z_EYEL, Z_EYER]].tolist(), limb.tolist(), torso.tolist(),
+                           head.tolist(), [_ZOMBIE_COLOURS[i] for i in fog_level.tolist()],
                            (d[:, Z_EYEL] < d[:, Z_HEAD]).tolist()))  # eyes nearer than the head: facing us
-        return hip, records
+        pad = (np.maximum(torso, head) + 5)[:, None]  # half the widest stroke (an outline), and a margin
+        extents = np.column_stack([pts.min(axis=1) - pad, pts.max(axis=1) + pad, d.min(axis=1) - self.THICK_M])
+        return hip, records, ok, extents
 
     def _plan_trails(self, frame: Frame, sl: slice, lengths: list, radii: list, fades: list) -> list:
         """Every ball's trail as glow blits, all at once: every other point, tapering, oldest faintest."""

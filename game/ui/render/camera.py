@@ -138,6 +138,10 @@ class Camera:
         self.state = (sx + (x - sx) * a, sy + (y - sy) * a, syaw + turn * b)
         self._place(*self.state)
 
+    def pose(self) -> tuple[float, ...]:
+        """The viewport, focal length, eye and axes: equal for two frames that see the world alike."""
+        return (self.width, self.height, self.f, *self.eye.tolist(), *self.rot.ravel().tolist())
+
     @property
     def yaw(self) -> float:
         return self.state[2] if self.state else 0.0

@@ -125,7 +125,8 @@ class Effects:
         self._emit_dt = 0.0
 
     def react(self, events: Iterable) -> None:
-        """Spawn effects for arena events: bursts and a flash ring for hits, sparks for the rest."""
+        """Spawn effects for arena events: bursts and a flash ring for hits and for a ball on a wall, sparks
+        for the rest."""
         p = self.particles
         for e in events:
             kind, pos = getattr(e, "kind", None), tuple(getattr(e, "position", (0.0, 0.0, 0.0)))
@@ -138,6 +139,10 @@ class Effects:
                 p.emit(pos, 14, 2.5, "spark", (0.2, 0.45), 0.04, 0.2)
             elif kind == "miss":
                 p.emit(pos, 18, 1.5, "energy", (0.3, 0.7), 0.05, -0.1)
+            elif kind == "wall":  # the ball bursts on a wall: sparks thrown back, a flash
+                p.emit(pos, 26, 5.0, "spark", (0.3, 0.7), 0.06, 0.8)
+                p.emit(pos, 16, 3.0, "energy", (0.3, 0.8), 0.07, 0.3)
+                self.flashes.append(Flash(pos, duration=0.25, radius=0.8))
             elif kind == "spawn":
                 p.emit(pos, 14, 1.2, "goo", (0.4, 0.8), 0.06, -0.05, spread=0.3)
             elif kind == "hurt":
@@ -176,15 +181,17 @@ class Effects:
         """The particles' and the flashes' positions into the frame's batch."""
         return batch.add(self.particles.pos), batch.add([fl.position for fl in self.flashes])
 
-    def plan(self, frame: Frame, particles: slice, flashes: slice) -> tuple[list, list]:
-        """The flashes' rings, and the glows of flashes and particles (additive blits)."""
-        circles, glows = self._plan_flashes(frame, flashes)
-        return circles, glows + self._plan_particles(frame, particles)
+    def plan(self, frame: Frame, particles: slice, flashes: slice) -> tuple[list, list, np.ndarray]:
+        """The flashes' rings (draw calls), and the glows of flashes and particles (additive blits), each
+        ring and glow with the batch index of its point (rings first): what covers it (:mod:`.occlusion`)."""
+        circles, glows, idx = self._plan_flashes(frame, flashes)
+        blits, at = self._plan_particles(frame, particles)
+        return circles, glows + blits, np.concatenate([np.asarray(idx, dtype=int), at])
 
-    def _plan_flashes(self, frame: Frame, sl: slice) -> tuple[list, list]:
+    def _plan_flashes(self, frame: Frame, sl: slice) -> tuple[list, list, list]:
         """Hit flashes: an expanding ring fading into the haze, a bright glow at first."""
         cam = self.camera
-        circles, glows = [], []
+        circles, glows, rings_at, glows_at = [], [], [], []
         for k, fl in enumerate(self.flashes):
             j = sl.start + k
             if not frame.visible[j]:
@@ -194,21 +201,25 @@ class Effects:
             r = cam.f * fl.radius * (0.2 + 0.8 * math.sqrt(u)) / frame.depth[j]
             if 1 <= r <= 4000:
                 colour = lerp(lerp((255, 255, 255), (60, 160, 255), u), HAZE, u * u)
-                circles.append((colour, (int(x), int(y)), int(r), max(1, int(5 * (1 - u)) + 1)))
+                circles.append((pygame.draw.circle, (colour, (int(x), int(y)), int(r), max(1, int(5 * (1 - u)) + 1))))
+                rings_at.append(j)
                 if u < 0.5:
                     glows.append(self.sprites.glow_blit(x, y, r * 1.2, "white", int(3 * (1 - 2 * u))))
-        return circles, glows
+                    glows_at.append(j)
+        return circles, glows, rings_at + glows_at
 
-    def _plan_particles(self, frame: Frame, sl: slice) -> list:
+    def _plan_particles(self, frame: Frame, sl: slice) -> tuple[list, np.ndarray]:
+        """The particles on screen as glow blits, and their batch indices."""
         p = self.particles
         if not p.count:
-            return []
+            return [], np.zeros(0, dtype=int)
         cam = self.camera
         x, y = frame.xy[sl, 0], frame.xy[sl, 1]
         rad = np.minimum(np.maximum(cam.f * p.size / np.maximum(frame.depth[sl], cam.near), 1), 40)
         on = frame.visible[sl] & (x > -rad) & (x < cam.width + rad) & (y > -rad) & (y < cam.height + rad)
-        return self.sprites.glow_blits(frame.xy[sl][on], rad[on], p.palette[on],
-                                       np.minimum(3, (p.life[on] / p.life0[on] * 4).astype(int)))
+        return (self.sprites.glow_blits(frame.xy[sl][on], rad[on], p.palette[on],
+                                        np.minimum(3, (p.life[on] / p.life0[on] * 4).astype(int))),
+                sl.start + np.flatnonzero(on))
 
 
 class Vignette:

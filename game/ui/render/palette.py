@@ -15,8 +15,19 @@ GROUND_HORIZON: Colour = (66, 42, 84)
 GROUND_NEAR: Colour = (14, 16, 32)
 HAZE: Colour = GROUND_HORIZON  # what distant things fade into
 GRID: Colour = (70, 140, 178)  # brighter than the ground in every channel (see Scenery._build_ground)
-RING: Colour = (255, 70, 160)
-RING_DIM: Colour = (170, 60, 130)
+TOWN_EDGE: Colour = (255, 70, 160)  # the town's edge on the ground, a glowing line
+TOWN_EDGE_DIM: Colour = (170, 60, 130)
+KERB: dict[str, Colour] = {"street": (150, 235, 255), "alley": (130, 100, 210), "square": (255, 130, 210)}
+KERB_DIM: dict[str, Colour] = {"street": (60, 120, 160), "alley": (80, 60, 140), "square": (150, 70, 140)}
+CENTRE_LINE: Colour = (235, 190, 90)  # a street's dashed middle
+KIND_COLOURS: dict[str, tuple[Colour, Colour]] = {  # the town's obstacles: fill, edge (neon)
+    "building": ((30, 28, 62), (80, 210, 240)),
+    "ruin": ((46, 32, 54), (200, 90, 160)),
+    "wall": ((56, 36, 56), (220, 100, 130)),
+    "fence": ((30, 44, 56), (110, 190, 160)),
+    "car": ((54, 36, 40), (255, 150, 70)),
+    "lamp_post": ((44, 44, 66), (170, 170, 210)),
+}
 SHADOW_DARKNESS = (0.45, 0.65, 0.85)  # multiply factors: dark, medium, faint
 
 OUTLINE: Colour = (8, 10, 22)
@@ -45,6 +56,14 @@ GLOW_COLOURS: dict[str, Colour] = {
 PALETTES = tuple(GLOW_COLOURS)  # particle palette index -> glow colour name
 PALETTE_INDEX = {name: i for i, name in enumerate(PALETTES)}
 AXIS_COLOURS: tuple[Colour, ...] = ((255, 96, 96), (96, 232, 112), (96, 156, 255), (255, 206, 80))
+MAP_LOTS = (30, 32, 62, 215)  # the minimap: the lots (pavements, yards, empty plots), translucent
+MAP_OPEN: dict[str, Colour] = {"street": (62, 72, 118), "alley": (48, 52, 92), "square": (84, 66, 118)}
+MAP_OBSTACLE: Colour = (4, 4, 12)
+MAP_BORDER: Colour = (120, 150, 220)
+MAP_ZOMBIE: Colour = (255, 70, 50)
+MAP_BALL: Colour = (120, 210, 255)
+MAP_PLAYER: Colour = (255, 236, 120)
+
 TEXT: Colour = (236, 238, 246)
 DIM_TEXT: Colour = (170, 176, 196)
 ACCENT: Colour = (110, 210, 255)

@@ -1,7 +1,8 @@
-"""The world around the actors: sky, ground and haze, the ground grid, the arena's ring, shadows.
+"""The world around the actors: sky, ground and haze, the ground grid, the town's lines on the ground, shadows.
 
-The town will be drawn here too. The sky, ground and haze are pre-rendered and
-cached; the grid and ring are clipped and projected once per camera move.
+The sky, ground and haze are pre-rendered and cached; the grid and the
+town's street lines (:func:`game.ui.render.town.ground_lines`) are clipped
+and projected once per camera move. The town's boxes are :mod:`.town`'s.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import pygame
 import pygame.gfxdraw
 
 from .camera import Batch, Camera, Frame
-from .palette import GRID, GROUND_HORIZON, GROUND_NEAR, HILLS, MULT, RING, RING_DIM, SKY_HORIZON, SKY_TOP, SUB
+from .palette import GRID, GROUND_HORIZON, GROUND_NEAR, HILLS, MULT, SKY_HORIZON, SKY_TOP, SUB
 from .sprites import SpriteCache, surface_from_array
 
 FOG_NEAR, FOG_FAR = 12.0, 55.0
@@ -49,32 +50,12 @@ def grid_segments(cx: float, cy: float, step: float, extent: float) -> tuple[np.
     return a, b
 
 
-def _runs(keep: list[bool], a: list, b: list) -> list[list]:
-    """Polylines through the kept segments a[i]->b[i] of a closed loop (no run wraps across the seam)."""
-    n = len(keep)
-    start = keep.index(False) if not all(keep) else 0
-    runs, run = [], []
-    for j in range(n):
-        i = (start + j) % n
-        if keep[i]:
-            if not run:
-                run.append(a[i])
-            run.append(b[i])
-        elif run:
-            runs.append(run)
-            run = []
-    if run:
-        runs.append(run)
-    return runs
-
-
 class Scenery:
-    """Draws the sky, the ground with its grid fading into the haze, the arena's ring and shadows."""
+    """Draws the sky, the ground with its grid and the town's lines fading into the haze, and shadows."""
 
     GRID_STEP = 2.0
     GRID_EXTENT = 56.0  # the grid's disc; its rim lies in the haze
     GRID_NEAR = 0.8  # ground lines are clipped here: nearer ground is below the screen
-    RING_SEGMENTS = 96
 
     def __init__(self, camera: Camera, sprites: SpriteCache) -> None:
         self.camera = camera
@@ -89,30 +70,34 @@ class Scenery:
         self._ground_pts = np.zeros((0, 3))
         self._ground_plan_key: tuple | None = None
         self._ground_plan: tuple[list, list] = ([], [])
+        self._town_colours: list = []
 
-    def gather(self, batch: Batch, settings) -> slice:
-        """The ground's points (grid, ring) into the frame's batch."""
-        return batch.add(self._ground_points(self.camera.state[:2], setting(
-            settings, ("arena_radius_m", "arena_radius", "radius"), 18.0)))
+    def gather(self, batch: Batch, lines: tuple[np.ndarray, np.ndarray, list] | None) -> slice:
+        """The ground's points (the grid's, then the town's ``lines``: starts, ends, colours) into the frame's batch."""
+        return batch.add(self._ground_points(self.camera.state[:2], lines))
 
     def plan_ground(self, frame: Frame, ground: slice) -> tuple[list, list]:
-        """Grid lines and ring polylines on screen (worked out again only when the camera moves)."""
+        """Grid lines and the town's coloured lines on screen (worked out again only when the camera moves)."""
         cam = self.camera
         key = (cam.width, cam.height, cam.f, *cam.eye.tolist(), *cam.rot[2].tolist(), self._ground_key)
         if key != self._ground_plan_key:
             self._ground_plan_key, self._ground_plan = key, self._plan_ground(frame.cam[ground])
         return self._ground_plan
 
-    def paint(self, surface: pygame.Surface, grid: list, ring: list, shadows: list) -> None:
-        """The background, the grid and ring fading into the haze, the shadows on the ground."""
+    def paint_ground(self, surface: pygame.Surface, grid: list, lines: list) -> None:
+        """The background, the grid and the town's lines fading into the haze."""
         self._draw_background(surface)
         line = pygame.gfxdraw.line  # 1-px lines: several times faster than pygame.draw.line
         for x1, y1, x2, y2 in grid:
             line(surface, x1, y1, x2, y2, GRID)
-        for colour, pts in ring:
-            pygame.draw.lines(surface, colour, False, pts)
+        for x1, y1, x2, y2, colour in lines:
+            line(surface, x1, y1, x2, y2, colour)
         self._draw_haze(surface)
-        surface.blits(shadows, doreturn=False)
+
+    @staticmethod
+    def paint_shadows(surface: pygame.Surface, shadows: list) -> list[pygame.Rect]:
+        """The shadows on the ground (:meth:`plan_shadows`); returns the rectangles painted."""
+        return surface.blits(shadows)
 
     def backdrop(self, surface: pygame.Surface) -> None:
         """The sky and the ground alone: behind a screen full of panels."""
@@ -186,36 +171,32 @@ class Scenery:
             surface.blit(self._ground, (0, hz))
 
     def _draw_haze(self, surface: pygame.Surface) -> None:
-        """Fade what is drawn on the ground (the grid, the ring) into the haze with distance (:meth:`_build_ground`)."""
+        """Fade what is drawn on the ground (the grid, the town's lines) into the haze with distance
+        (:meth:`_build_ground`)."""
         if self._haze is not None:
             surface.blit(self._haze, (0, max(0, min(surface.get_height(), self._horizon))), special_flags=SUB)
 
-    def _ground_points(self, cam_xy: Sequence[float], radius: float) -> np.ndarray:
-        """Grid line starts, grid line ends, then the arena ring's closed polyline (cached per grid cell)."""
+    def _ground_points(self, cam_xy: Sequence[float], lines) -> np.ndarray:
+        """Grid line starts, grid line ends, then the town's line starts and ends (cached per grid cell and town)."""
         step = self.GRID_STEP
-        key = (round(cam_xy[0] / step), round(cam_xy[1] / step), radius)
+        key = (round(cam_xy[0] / step), round(cam_xy[1] / step), id(lines))
         if key != self._ground_key:
             a, b = grid_segments(key[0] * step, key[1] * step, step, self.GRID_EXTENT)
-            ang = np.linspace(0, 2 * math.pi, self.RING_SEGMENTS + 1)
-            ring = np.stack([radius * np.cos(ang), radius * np.sin(ang), np.zeros_like(ang)], 1)
-            self._ground_key, self._ground_pts = key, np.concatenate([a, b, ring])
+            starts, ends, colours = lines if lines is not None else (np.zeros((0, 3)), np.zeros((0, 3)), [])
+            self._ground_key, self._town_colours = key, colours
+            self._ground_pts = np.concatenate([a, starts, b, ends])
         return self._ground_pts
 
     def _plan_ground(self, camp: np.ndarray) -> tuple[list, list]:
-        """Clip grid and ring (camera space) in one go: grid lines, and the ring as glowing polylines."""
-        n = (len(camp) - self.RING_SEGMENTS - 1) // 2
-        grid, ring = camp[:2 * n], camp[2 * n:]
-        pa, pb, keep = self.camera.screen_segments(np.concatenate([grid[:n], ring[:-1]]),
-                                                   np.concatenate([grid[n:], ring[1:]]),
-                                                   max(self.GRID_NEAR, self.camera.near))
-        g = keep[:n]
-        lines = np.hstack([pa[:n][g], pb[:n][g]]).astype(np.int32).tolist()
-        runs = _runs(keep[n:].tolist(), pa[n:].astype(np.int32).tolist(), pb[n:].astype(np.int32).tolist())
-        polylines = []
-        for run in runs:
-            for dy, colour in ((-1, RING_DIM), (1, RING_DIM), (0, RING)):  # three 1-px lines: a soft glow
-                polylines.append((colour, [[x, y + dy] for x, y in run]))
-        return lines, polylines
+        """Clip the grid's and the town's lines (camera space) in one go: the grid's, and the town's with colours."""
+        n = len(camp) // 2
+        pa, pb, keep = self.camera.screen_segments(camp[:n], camp[n:], max(self.GRID_NEAR, self.camera.near))
+        lines = np.hstack([pa, pb]).astype(np.int32)
+        g = n - len(self._town_colours)  # the grid's lines come first
+        grid = lines[:g][keep[:g]].tolist()
+        town = [(*seg, colour) for seg, k, colour in zip(lines[g:].tolist(), keep[g:].tolist(), self._town_colours)
+                if k]
+        return grid, town
 
     def plan_shadows(self, frame: Frame, idx: np.ndarray, width_m: np.ndarray, height_m: np.ndarray) -> list:
         """Soft dark ellipses (multiply blits) at ground points; smaller and fainter under things in the air."""

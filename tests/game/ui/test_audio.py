@@ -26,7 +26,8 @@ RATE = 22050
 
 # What the game expects, written down independently of the generator's own table: seconds (min, max).
 EXPECTED = {
-    "launch": (0.3, 1.2), "hit": (0.3, 1.2), "miss": (0.2, 1.0), "hurt": (0.2, 1.0), "click": (0.01, 0.15),
+    "launch": (0.3, 1.2), "hit": (0.3, 1.2), "miss": (0.2, 1.0), "wall": (0.2, 0.8), "hurt": (0.2, 1.0),
+    "click": (0.01, 0.15),
     "wave": (1.0, 4.0), "game_over": (1.0, 4.0),
     "groan_1": (0.6, 2.5), "groan_2": (0.6, 2.5), "groan_3": (0.6, 2.5),
     "charge_1": (0.9, 1.1), "charge_2": (0.9, 1.1), "charge_3": (0.9, 1.1),

@@ -22,15 +22,6 @@ from game.world.arena_model import ArenaEvent, Ball, BallState, HeldBall, Player
 IDENTITY = (1.0, 0.0, 0.0, 0.0)
 
 
-@pytest.fixture(scope="module")
-def screen():
-    pygame.display.init()
-    pygame.font.init()
-    surface = pygame.display.set_mode((1280, 720))
-    yield surface
-    pygame.display.quit()
-
-
 def raised_avatar(player: Player, elevation_deg: float = 100.0, flex_deg: float = 40.0) -> Avatar:
     """An avatar standing where the player is, the tracked arm raised forward (board frame = bone frame)."""
     avatar = Avatar(BodySettings(), Wearing(IDENTITY, IDENTITY), body_yaw=player.yaw, position=(player.x, player.y))
@@ -60,7 +51,7 @@ def busy_scene(n_zombies: int = 60, seed: int = 1):
         for j in range(24):
             ball.trail.append(tuple(start + v * (0.25 + 0.1 * k) * j / 24))
         balls.append(ball)
-    settings = SimpleNamespace(arena_radius_m=18.0, zombie_height_m=1.8, zombie_radius_m=0.35, hurt_flash_s=0.3,
+    settings = SimpleNamespace(zombie_height_m=1.8, zombie_radius_m=0.35, hurt_flash_s=0.3,
                                ball_radius_m=0.22, ball_radius_per_charge_m=0.1)
     held = HeldBall(position=(0.3, 0.55, 1.7), state="spinning", charge=0.7, spin=1.0)
     arena = SimpleNamespace(player=player, zombies=zombies, balls=balls, held=held, score=1200, wave=3,
@@ -372,11 +363,3 @@ def test_title_glow_leaves_no_box(screen):
     r.draw_title(screen, "ENERGYBALL", "sub")
     rect = r.text.render("ENERGYBALL", 720 // 7).get_rect(midtop=(640, 720 // 6))
     assert tuple(screen.get_at((rect.left + 2, rect.top + 1)))[:3] == (20, 20, 40)  # a corner between letters
-
-
-def test_ring_runs_do_not_wrap_across_the_seam():
-    from game.ui.render.world import _runs
-    a, b = [[i, 0] for i in range(4)], [[i + 1, 0] for i in range(4)]
-    assert _runs([True, True, False, True], a, b) == [[[3, 0], [4, 0], [1, 0], [2, 0]]]
-    assert _runs([True, False, True, False], a, b) == [[[2, 0], [3, 0]], [[0, 0], [1, 0]]]
-    assert _runs([False] * 4, a, b) == []

@@ -8,9 +8,17 @@ import pytest
 
 from game.world.arena import Arena, ArenaSettings, segment_distance
 from game.world.arena_model import BallState, Controls, ZombieState
+from game.world.town import Obstacle, Town
 
 NO_WAVES = ArenaSettings(first_wave_delay_s=1e9)  # a quiet arena: only the zombies a test puts there
 DT = ArenaSettings().dt_s
+# An open square 36 m across, zombies coming in at the middle of each side: the mechanics
+# without walls (the town's own tests are in test_town.py and below).
+OPEN = Town(half_size_m=18.0, obstacles=(), spawn_points=((17.0, 0.0), (-17.0, 0.0), (0.0, 17.0), (0.0, -17.0)))
+
+
+def open_arena(settings=NO_WAVES, seed=0):
+    return Arena(settings, seed=seed, town=OPEN)
 
 
 def kinds(events):
@@ -31,7 +39,7 @@ def reach(settings, charge=0.0):
 # ---------------------------------------------------------------- balls and hits
 
 def test_ball_hits_zombie_and_blows_it_into_the_sky():
-    arena = Arena(NO_WAVES)
+    arena = open_arena()
     zombie = arena.add_zombie(0.0, 8.0, speed=0.0)
     ball = arena.launch((0.0, 0.0, 1.2), (0.0, 1.0, 0.0), 0.5)
     assert ball is not None and math.isclose(math.dist(ball.velocity, (0, 0, 0)), 20.0)
@@ -51,7 +59,7 @@ def test_ball_hits_zombie_and_blows_it_into_the_sky():
 
 
 def test_flying_zombie_comes_down_and_is_removed():
-    arena = Arena(NO_WAVES)
+    arena = open_arena()
     zombie = arena.add_zombie(0.0, 5.0, speed=0.0)
     arena.launch((0.0, 0.0, 1.0), (0.0, 1.0, 0.0), 1.0)
     run(arena, 0.5)
@@ -61,7 +69,7 @@ def test_flying_zombie_comes_down_and_is_removed():
 
 
 def test_a_landed_zombie_stays_marked_gone_until_the_next_step():
-    arena = Arena(NO_WAVES)
+    arena = open_arena()
     zombie = arena.add_zombie(0.0, 5.0, speed=0.0)
     arena.launch((0.0, 0.0, 1.0), (0.0, 1.0, 0.0), 1.0)
     while zombie.state is not ZombieState.GONE:
@@ -72,13 +80,13 @@ def test_a_landed_zombie_stays_marked_gone_until_the_next_step():
 
 
 def test_ball_aimed_away_misses_fades_and_goes():
-    arena = Arena(NO_WAVES)
+    arena = open_arena()
     zombie = arena.add_zombie(0.0, 8.0, speed=0.0)
     ball = arena.launch((0.0, 0.0, 1.2), (0.0, -1.0, 0.0), 0.0)
-    events = run(arena, 1.95)  # 10 m/s: out of the arena (18 + 1 m) after 1.9 s
+    events = run(arena, 1.95)  # 10 m/s: out of the town (18 + 1 m) after 1.9 s
     assert kinds(events) == ["launch", "miss"]
     assert ball.state is BallState.FADING and ball.velocity == (0.0, 0.0, 0.0)
-    assert ball.position[1] < -(NO_WAVES.arena_radius_m + 0.9)
+    assert ball.position[1] < -(OPEN.half_size_m + 0.9)
     stopped = ball.position
     run(arena, 0.3)
     assert ball.position == stopped and 0.0 < ball.fade < 1.0
@@ -90,7 +98,7 @@ def test_ball_aimed_away_misses_fades_and_goes():
 
 def test_ball_misses_after_max_flight_time():
     settings = ArenaSettings(first_wave_delay_s=1e9, ball_speed_m_s=1.0, ball_speed_per_charge_m_s=0.0)
-    arena = Arena(settings)
+    arena = open_arena(settings)
     arena.launch((0.0, 0.0, 1.0), (1.0, 0.0, 0.0), 0.0)
     events = run(arena, settings.ball_max_flight_s + 0.05)
     assert "miss" in kinds(events)
@@ -98,7 +106,7 @@ def test_ball_misses_after_max_flight_time():
 
 
 def test_ball_into_the_ground_stops_there():
-    arena = Arena(NO_WAVES)
+    arena = open_arena()
     arena.launch((0.0, 0.0, 1.0), (0.0, 1.0, -1.0), 0.0)
     events = run(arena, 0.5)
     miss = next(e for e in events if e.kind == "miss")
@@ -108,7 +116,7 @@ def test_ball_into_the_ground_stops_there():
 def test_swept_collision_catches_a_ball_that_jumps_over_the_zombie():
     settings = ArenaSettings(first_wave_delay_s=1e9, ball_speed_m_s=200.0, ball_speed_per_charge_m_s=0.0)
     step = 200.0 * settings.dt_s  # 1.67 m a step
-    arena = Arena(settings)
+    arena = open_arena(settings)
     zombie = arena.add_zombie(0.0, 10.0, speed=0.0)
     p0 = (0.0, 10.0 - step / 2, 1.0)  # the two step ends straddle the zombie, 0.83 m either side
     p1 = (0.0, 10.0 + step / 2, 1.0)
@@ -123,7 +131,7 @@ def test_swept_collision_catches_a_ball_that_jumps_over_the_zombie():
 
 @pytest.mark.parametrize("offset, hits", [(0.01, False), (-0.01, True)])
 def test_ball_passing_just_outside_the_body_misses(offset, hits):
-    arena = Arena(NO_WAVES)
+    arena = open_arena()
     zombie = arena.add_zombie(0.0, 6.0, speed=0.0)
     x = reach(NO_WAVES) + offset  # the ball's path passes this far beside the zombie's axis
     arena.launch((x, 0.0, 1.0), (0.0, 1.0, 0.0), 0.0)
@@ -136,7 +144,7 @@ def test_ball_over_the_head_misses_and_at_the_head_hits():
     s = NO_WAVES
     head = s.zombie_height_m + s.ball_radius_m  # the top of the capsule plus the ball's radius
     for z, hits in ((head + 0.01, False), (head - 0.01, True)):
-        arena = Arena(s)
+        arena = open_arena(s)
         arena.add_zombie(0.0, 6.0, speed=0.0)
         arena.launch((0.0, 0.0, z), (0.0, 1.0, 0.0), 0.0)
         assert ("hit" in kinds(run(arena, 1.0))) is hits
@@ -144,7 +152,7 @@ def test_ball_over_the_head_misses_and_at_the_head_hits():
 
 def test_the_first_zombie_along_the_path_takes_the_ball():
     settings = ArenaSettings(first_wave_delay_s=1e9, ball_speed_m_s=400.0, ball_speed_per_charge_m_s=0.0)
-    arena = Arena(settings)
+    arena = open_arena(settings)
     far = arena.add_zombie(0.0, 3.0, speed=0.0)  # both in one step's path (3.3 m), the far one listed first
     near = arena.add_zombie(0.0, 2.0, speed=0.0)
     arena.launch((0.0, 0.5, 1.0), (0.0, 1.0, 0.0), 0.0)
@@ -154,7 +162,7 @@ def test_the_first_zombie_along_the_path_takes_the_ball():
 
 
 def test_tough_zombie_is_knocked_back_then_killed():
-    arena = Arena(NO_WAVES)
+    arena = open_arena()
     zombie = arena.add_zombie(0.0, 6.0, speed=0.0, health=2)
     arena.launch((0.0, 0.0, 1.0), (0.0, 1.0, 0.0), 0.0)
     events = run(arena, 1.0)
@@ -172,7 +180,7 @@ def test_tough_zombie_is_knocked_back_then_killed():
 
 
 def test_launch_normalises_and_ignores_bad_directions():
-    arena = Arena(NO_WAVES)
+    arena = open_arena()
     assert arena.launch((0, 0, 1), (0, 0, 0), 0.5) is None
     assert arena.launch((0, 0, 1), (math.nan, 1, 0), 0.5) is None
     assert arena.launch((math.nan, 0, 1), (0, 1, 0), 0.5) is None
@@ -184,7 +192,7 @@ def test_launch_normalises_and_ignores_bad_directions():
 
 
 def test_hold_places_the_ball_in_hand():
-    arena = Arena(NO_WAVES)
+    arena = open_arena()
     arena.hold((0.3, 0.4, 1.5), "spinning", 0.5)
     assert arena.held.position == (0.3, 0.4, 1.5) and arena.held.visible and arena.held.charge == 0.5
     spin = arena.held.spin
@@ -256,7 +264,7 @@ def test_segment_distance_against_brute_force():
 # ---------------------------------------------------------------- zombies and the player
 
 def test_zombies_walk_to_the_player_and_hurt_on_contact():
-    arena = Arena(NO_WAVES)
+    arena = open_arena()
     zombie = arena.add_zombie(3.0, 4.0, speed=1.0)
     zombie.heading = 0.0  # facing away: it turns to the player as it walks
     phase = zombie.phase
@@ -274,7 +282,7 @@ def test_zombies_walk_to_the_player_and_hurt_on_contact():
 
 
 def test_hurt_flash_and_event_rate():
-    arena = Arena(NO_WAVES)
+    arena = open_arena()
     for k in range(3):
         arena.add_zombie(0.8 * math.cos(k * 2.1), 0.8 * math.sin(k * 2.1), speed=0.0)
     events = arena.step(Controls())
@@ -285,7 +293,7 @@ def test_hurt_flash_and_event_rate():
 
 
 def test_zombies_keep_apart():
-    arena = Arena(NO_WAVES)
+    arena = open_arena()
     zombies = [arena.add_zombie(5.0, 0.0, speed=1.0) for _ in range(5)]  # all on one spot
     run(arena, 0.2)
     for i, a in enumerate(zombies):
@@ -294,7 +302,7 @@ def test_zombies_keep_apart():
 
 
 def test_game_over_at_zero_health():
-    arena = Arena(NO_WAVES)
+    arena = open_arena()
     arena.player.health = 1.0
     arena.add_zombie(0.5, 0.0, speed=0.0)
     events = run(arena, 0.1)
@@ -308,7 +316,7 @@ def test_game_over_at_zero_health():
 
 
 def test_player_walks_and_turns():
-    arena = Arena(NO_WAVES)
+    arena = open_arena()
     run(arena, 1.0, Controls(forward=1.0))
     assert (arena.player.x, arena.player.y) == pytest.approx((0.0, 3.0))
     run(arena, 1.0, Controls(strafe=1.0))  # right of north is east
@@ -320,17 +328,18 @@ def test_player_walks_and_turns():
     x, y = arena.player.x, arena.player.y
     run(arena, 1.0, Controls(forward=1.0, strafe=1.0))  # diagonals no faster
     assert math.hypot(arena.player.x - x, arena.player.y - y) == pytest.approx(3.0)
-    run(arena, 20.0, Controls(forward=1.0))  # stopped by the arena's edge
-    assert math.hypot(arena.player.x, arena.player.y) == pytest.approx(NO_WAVES.arena_radius_m)
+    run(arena, 20.0, Controls(forward=1.0))  # stopped by the town's edge, his body inside it
+    edge = OPEN.half_size_m - NO_WAVES.player_radius_m
+    assert arena.player.x == pytest.approx(-edge)
     arena.step(Controls(forward=math.nan, strafe=5.0))  # junk input: NaN is 0, 5 is 1
-    assert math.hypot(arena.player.x, arena.player.y) <= NO_WAVES.arena_radius_m + 1e-9
+    assert max(abs(arena.player.x), abs(arena.player.y)) <= edge + 1e-9
 
 
 # ---------------------------------------------------------------- waves
 
 def test_waves_advance_and_grow():
     s = ArenaSettings()
-    arena = Arena(s, seed=3)
+    arena = open_arena(s, seed=3)
     events = run(arena, s.first_wave_delay_s + 0.01)
     assert [e.value for e in events if e.kind == "wave"] == [1.0]
     spawned = [e for e in events if e.kind == "spawn"]  # the first comes with the wave
@@ -348,7 +357,7 @@ def test_waves_advance_and_grow():
         assert arena.wave == wave + 1 and arena.wave_progress == 0.0
         spawned = []
     for e in events:
-        assert e.kind != "spawn" or math.hypot(*e.position[:2]) == pytest.approx(s.arena_radius_m)
+        assert e.kind != "spawn" or tuple(e.position[:2]) in OPEN.spawn_points
     assert waves == [2.0, 3.0, 4.0]
     assert s.speed_range(5)[0] > s.speed_range(1)[0] and s.speed_range(5)[1] > s.speed_range(1)[1]
     assert s.speed_range(100)[1] == s.zombie_speed_cap
@@ -358,7 +367,7 @@ def test_waves_advance_and_grow():
 
 def test_later_waves_bring_faster_tougher_zombies():
     s = ArenaSettings()
-    arena = Arena(s, seed=1)
+    arena = open_arena(s, seed=1)
     arena.wave = 1
     first = [arena._spawn() for _ in range(200)]
     arena.wave = 8
@@ -372,7 +381,7 @@ def test_later_waves_bring_faster_tougher_zombies():
 
 def test_wave_waits_while_zombies_walk():
     s = ArenaSettings(wave_base_count=1, wave_count_per_wave=0, first_wave_delay_s=0.5)
-    arena = Arena(s)
+    arena = open_arena(s)
     run(arena, 1.0)
     assert arena.wave == 1 and len(arena.alive_zombies) == 1 and arena.wave_progress == 0.0
     events = run(arena, s.wave_pause_s + 1.0)
@@ -393,9 +402,9 @@ def state(arena):
             arena.rng.bit_generator.state)
 
 
-def play(frames, seed=5):
+def play(frames, seed=5, town=OPEN):
     """Walk in a circle through the frames; halfway through, throw at the nearest zombie."""
-    arena = Arena(seed=seed)
+    arena = Arena(seed=seed, town=town)
     controls = Controls(forward=1.0, strafe=-0.3, turn=0.3)
     events = []
     for k, half in enumerate((frames, frames)):
@@ -433,7 +442,7 @@ def test_advance_is_independent_of_the_frame_rate():
 
 
 def test_advance_carries_the_remainder_and_caps_catch_up():
-    arena = Arena(NO_WAVES)
+    arena = open_arena()
     arena.advance(0.75 * DT)
     assert arena.ticks == 0 and arena.interpolation == pytest.approx(0.75)
     arena.advance(0.5 * DT)
@@ -446,16 +455,16 @@ def test_advance_carries_the_remainder_and_caps_catch_up():
 
 
 def test_deterministic_with_the_seed():
-    a = state(play([1 / 60] * 900, seed=9)[0])
-    b = state(play([1 / 60] * 900, seed=9)[0])
-    c = state(play([1 / 60] * 900, seed=10)[0])
-    assert a == b and a != c
+    """The same seed gives the same town and the same match; another seed, another (each its own town)."""
+    a, b, c = (play([1 / 60] * 900, seed=seed, town=None)[0] for seed in (9, 9, 10))
+    assert a.town == b.town and a.town != c.town
+    assert state(a) == state(b) and state(a) != state(c)
 
 
 # ---------------------------------------------------------------- settings
 
 @pytest.mark.parametrize("change, message", [
-    ({"arena_radius_m": 0.0}, "arena_radius_m"),
+    ({"player_radius_m": 0.0}, "player_radius_m"),
     ({"dt_s": math.nan}, "dt_s"),
     ({"zombie_speed_min": 2.0, "zombie_speed_max": 1.0}, "zombie_speed_min"),
     ({"zombie_height_m": 0.5}, "capsule"),
@@ -468,3 +477,111 @@ def test_deterministic_with_the_seed():
 def test_settings_are_validated(change, message):
     with pytest.raises(ValueError, match=message):
         ArenaSettings(**change)
+
+
+# ---------------------------------------------------------------- the town
+
+WALL = Obstacle("wall", -3.0, 5.0, 3.0, 5.3, 2.5)  # 6 m long, 0.3 m thick, across the way north
+FENCE = Obstacle("fence", -3.0, 5.0, 3.0, 5.2, 1.2)  # thinner and low
+
+
+def walled(*obstacles):
+    return Arena(NO_WAVES, town=Town(half_size_m=18.0, obstacles=obstacles, spawn_points=OPEN.spawn_points))
+
+
+def test_a_ball_thrown_at_a_zombie_behind_a_wall_hits_the_wall():
+    arena = walled(WALL)
+    zombie = arena.add_zombie(0.0, 8.0, speed=0.0)
+    arena.launch((0.0, 0.0, 1.2), (0.0, 1.0, 0.0), 0.0)  # 10 m/s
+    events = run(arena, 1.0)
+    assert kinds(events) == ["launch", "wall"] and arena.wall_hits == 1 and arena.hits == 0
+    radius = NO_WAVES.ball_radius(0.0)
+    assert events[1].position == pytest.approx((0.0, WALL.y0 - radius, 1.2))  # stopped at the face
+    assert zombie.health == 1 and zombie.state is ZombieState.WALKING
+
+
+@pytest.mark.parametrize("charge", [0.0, 1.0])
+def test_no_ball_tunnels_through_a_thin_fence(charge):
+    """At 30 m/s and 120 Hz a ball moves 0.25 m a step, more than the 0.2 m fence: swept, it still stops."""
+    arena = walled(FENCE)
+    zombie = arena.add_zombie(0.0, 6.0, speed=0.0)
+    arena.launch((0.0, 0.0, 1.0), (0.0, 1.0, 0.0), charge)
+    run(arena, 1.0)
+    assert arena.wall_hits == 1 and zombie.health == 1
+
+
+def test_a_ball_over_a_low_fence_hits_the_zombie_behind_it():
+    arena = walled(FENCE)  # 1.2 m high: a ball at 1.7 m clears it (radius 0.22)
+    arena.add_zombie(0.0, 6.0, speed=0.0)
+    arena.launch((0.0, 0.0, 1.7), (0.0, 1.0, 0.0), 0.0)
+    assert "hit" in kinds(run(arena, 1.0)) and arena.wall_hits == 0
+
+
+def test_the_player_slides_along_a_wall():
+    """Walking north-east into the wall's face: the northward part is taken back, the eastward kept."""
+    long_wall = Obstacle("wall", -10.0, 5.0, 10.0, 5.3, 2.5)
+    arena = walled(long_wall)
+    run(arena, 4.0, Controls(forward=1.0, strafe=1.0))  # 3 m/s at 45 degrees: 2.12 m/s each way
+    p = arena.player  # at the face after 4.65 / 2.12 = 2.2 s, then along it
+    assert p.y == pytest.approx(long_wall.y0 - NO_WAVES.player_radius_m)
+    assert p.x == pytest.approx(4.0 * 3.0 / math.sqrt(2.0), abs=0.01)  # eastward the whole time
+    assert arena.obstacle_violations == 0
+
+
+def test_a_zombie_walks_round_a_wall_to_the_player_and_never_into_it():
+    arena = walled(WALL)
+    zombie = arena.add_zombie(0.0, 9.0, speed=1.0)  # straight south is blocked
+    r, closest = NO_WAVES.zombie_radius_m, math.inf
+    for _ in range(int(20.0 / DT)):
+        arena.step()
+        cx, cy = min(max(zombie.x, WALL.x0), WALL.x1), min(max(zombie.y, WALL.y0), WALL.y1)
+        closest = min(closest, math.hypot(zombie.x - cx, zombie.y - cy))
+    assert math.hypot(zombie.x, zombie.y) == pytest.approx(0.9 * NO_WAVES.contact_distance_m, abs=0.05)
+    assert closest >= r - 1e-9 and arena.obstacle_violations == 0
+
+
+def test_the_player_cannot_squeeze_through_a_gap_narrower_than_himself():
+    """Seed 113's town: a wall's end 0.691 m from a building's side, less than the player's 0.70 m.
+    Pushed out of one and into the other, he stood 9 mm inside the wall for 21 steps and then came
+    through; now he stays where he was when no place near is out of both."""
+    wall = Obstacle("wall", 13.321, -23.048, 17.368, -22.608, 2.0)
+    building = Obstacle("building", 18.059, -22.696, 22.696, -16.952, 8.0)
+    arena = Arena(NO_WAVES, town=Town(half_size_m=24.0, obstacles=(wall, building), spawn_points=((0.0, 23.0),)))
+    arena.player.x, arena.player.y = 17.72, -23.4  # south of the gap, beside the wall's end
+    for k in range(360):  # 3 s north, swaying left and right
+        arena.step(Controls(forward=1.0, strafe=0.3 if (k // 40) % 2 else -0.3))
+    assert arena.obstacle_violations == 0
+    assert arena.player.y < building.y0  # not through
+
+
+def test_a_zombie_in_a_pocket_the_grid_leaves_closed_finds_the_gap_out():
+    """A walled yard open by a 1.3 m gap in its south wall (x 5.0 to 6.3): a body (0.7 m) fits,
+    but the free strip for its centre (5.35 to 5.95) spans no whole 0.5 m cell, so on the
+    navigator's grid the yard has no way out (seed 106's town had such a pocket). The zombie
+    inside walks out through the gap and round to the player, never into a wall."""
+    yard = (Obstacle("wall", 2.0, 4.0, 5.0, 4.3, 2.5), Obstacle("wall", 6.3, 4.0, 10.0, 4.3, 2.5),
+            Obstacle("wall", 2.0, 4.0, 2.3, 10.0, 2.5), Obstacle("wall", 9.7, 4.0, 10.0, 10.0, 2.5),
+            Obstacle("wall", 2.0, 9.7, 10.0, 10.0, 2.5))
+    arena = walled(*yard)
+    zombie = arena.add_zombie(4.0, 8.0, speed=1.0)
+    assert arena.navigator.path_length(zombie.x, zombie.y) == math.inf  # lost on the grid
+    for _ in range(int(30.0 / DT)):
+        arena.step()
+    assert math.hypot(zombie.x, zombie.y) == pytest.approx(0.9 * NO_WAVES.contact_distance_m, abs=0.05)
+    assert arena.obstacle_violations == 0
+
+
+def test_a_seeded_match_keeps_every_body_out_of_the_town_obstacles():
+    """Two waves in a real town, the player walking about: no step has a body inside an obstacle."""
+    s = ArenaSettings(first_wave_delay_s=0.5, contact_damage_per_s=0.0)
+    arena = Arena(s, seed=4)
+    assert arena.town.obstacles
+    for k in range(int(40.0 / DT)):
+        arena.step(Controls(forward=1.0, turn=0.4 if (k // 600) % 2 else -0.4))
+    assert len(arena.zombies) > 5 and arena.obstacle_violations == 0
+
+
+def test_the_per_step_constants_are_worked_out_once_from_the_settings():
+    s = ArenaSettings(zombie_radius_m=0.4)
+    assert s._per_step is s._per_step and s._per_step.gap == 0.8
+    assert s == ArenaSettings(zombie_radius_m=0.4) and "_per_step" not in repr(s)
