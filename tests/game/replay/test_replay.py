@@ -117,6 +117,7 @@ def test_a_virtual_board_session_replays_to_the_same_events(virtual_session):
     report = replay(path)
     assert report.difference is None
     assert report.events == live["events"]
+    assert (report.summary["score"], report.summary["kills"]) == (live["score"], live["kills"])
     assert any(g[0] == "launch" for e in live["events"] for g in e["gestures"])  # the virtual player threw
     samples = sum(len(unpack(r.data)) for r in SessionReader(path).records()
                   if isinstance(r, BinaryRecord) and r.channel == SAMPLES)
