@@ -192,7 +192,10 @@ def replay(path: str | Path, viewer: Viewer | None = None, rescorer: Rescorer | 
             pending[:] = [r for r in frame.sources if r["kind"] == "board"]
             if number == 0:  # the input chosen at the start
                 for r in frame.sources:
-                    game.use_board(None, r["virtual"]) if r["kind"] == "board" else game.use_keyboard()
+                    if r["kind"] == "board":
+                        game.use_board(None, r["virtual"])
+                    else:
+                        game.use_keyboard()
                 continue
             report.holds += frame.holds
             if frame.arena:  # the round begun in this frame is in an arena of these settings

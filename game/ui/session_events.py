@@ -22,6 +22,7 @@ import pygame
 
 from tracker import protocol as P
 from tracker.calibration import boards_dir
+from tracker.userjson import read_json
 
 from ..replay.log import SessionLog, SessionRecorder
 from .preferences import shown
@@ -71,7 +72,7 @@ def saved_boards(folder: Path) -> dict[str, dict]:
     for path in sorted(folder.glob("*.json")) if folder.is_dir() else []:
         try:
             if path.stat().st_size <= MAX_BOARD_FILE_BYTES:
-                boards[path.name] = json.loads(path.read_text(encoding="utf-8"))
+                boards[path.name] = read_json(path)  # the project's reader: regular files, checked JSON
         except (OSError, ValueError):
             continue  # the game will say what is wrong with it when it reads it
     return boards
