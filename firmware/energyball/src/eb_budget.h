@@ -43,8 +43,8 @@ extern "C" {
 #define EB_BAUD 500000ul
 
 /* Measured with firmware/sim/boardsim at 100 kHz and 500000 baud, 200 Hz, a still board
- * with the data sheets' noise (firmware/README.md, "Rate limits"): read 4574 (RAW) and
- * 3683 (FUSED) besides the bus, compute + send 2295 + 5243 (RAW) and 26479 + 3556
+ * with the data sheets' noise (firmware/README.md, "Rate limits"): read 4575 (RAW) and
+ * 3682 (FUSED) besides the bus, compute + send 2296 + 5242 (RAW) and 26325 + 3555
  * (FUSED), with some margin; the UART's interrupts (EB_UART_ISR_CYCLES a byte, counted
  * apart) fall into these phases. A FUSED sample whose tilt is more than 11 degrees off
  * takes the filter's exact path, up to 3000 cycles more (firmware/README.md): the 10%

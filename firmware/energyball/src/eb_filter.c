@@ -100,9 +100,9 @@ static void quat_rotate(float r[3], const float q[4], const float v[3])
 #define NEWTON_MAX_NORM_ERROR 1.220703125e-4f
 
 /* q / |q|. Products of unit quaternions stay unit to a few u, so |q|^2 = 1 + e with
- * |e| <= 2^-13 and 1 / sqrt(1 + e) = 1 - e/2 + 3 e^2 / 8 ...: one Newton step from 1,
- * 1 - e/2, is off by at most 3 e^2 / 8 = 5.6e-9 = 0.09 u. e = |q|^2 - 1 is exact
- * (Sterbenz: |q|^2 is within a factor 2 of 1). */
+ * |e| <= 2^-13 and 1 / sqrt(1 + e) = 1 - e/2 + 3 e^2 / 8 - 5 e^3 / 16 ...: one Newton
+ * step from 1, 1 - e/2, is off by 3 e^2 / 8 (1 + 2e-4 at most) = 5.6e-9 = 0.09 u.
+ * e = |q|^2 - 1 is exact (Sterbenz: |q|^2 is within a factor 2 of 1). */
 static void quat_normalize(float q[4])
 {
     float e = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3] - 1.0f;
