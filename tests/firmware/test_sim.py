@@ -167,6 +167,16 @@ def segment_at(t: float) -> tuple | None:
     return current
 
 
+def identify(link: Link, timeout: float = 3) -> P.Hello | None:
+    """IDENTIFY, and the HELLO that answers it (None if none comes within timeout seconds)."""
+    link.hello = None
+    link.command(P.Command(P.FrameType.IDENTIFY))
+    end = time.monotonic() + timeout
+    while link.hello is None and time.monotonic() < end:
+        time.sleep(0.01)
+    return link.hello
+
+
 @pytest.fixture(scope="module")
 def stream(boardsim: Path, elf: Path, motion_csv: Path, tmp_path_factory: pytest.TempPathFactory) -> dict:
     """About 2.8 simulated seconds read through tracker.link.Link, then an IDENTIFY."""
@@ -181,12 +191,7 @@ def stream(boardsim: Path, elf: Path, motion_csv: Path, tmp_path_factory: pytest
                 s = link.get(timeout=0.5)
                 if s is not None:
                     samples.append(s)
-            link.hello = None
-            link.command(P.Command(P.FrameType.IDENTIFY))
-            end = time.monotonic() + 3
-            while link.hello is None and time.monotonic() < end:
-                time.sleep(0.01)
-            identified = link.hello
+            identified = identify(link)
             stats = link.stats()
         report = board.report()
     return {"hello": hello, "samples": samples, "identified": identified, "stats": stats,
@@ -524,12 +529,7 @@ def test_both_modes_sustain_200_hz_with_the_data_sheets_noise(boardsim, elf, tmp
                        "--flex-mv", str(FLEX_MV)) as board:
         with Link(LinkSettings(port=str(board.link), reconnect=False, rate_hz=RATE_HZ, mode=mode)) as link:
             samples = [s for s in link.samples(3.0) if isinstance(s, kind)]
-            link.hello = None
-            link.command(P.Command(P.FrameType.IDENTIFY))
-            end = time.monotonic() + 3
-            while link.hello is None and time.monotonic() < end:
-                time.sleep(0.01)
-            identified = link.hello
+            identified = identify(link)
             stats = link.stats()
         report = board.report()
     assert identified is not None and report["imu"]["noise"]
