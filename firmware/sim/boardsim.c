@@ -5,7 +5,7 @@
  *                [--flex-mv MV] [--flex-swing LO,HI] [--no-imu] [--seed N]
  *                [--noise | --no-noise] [--eeprom-bias X,Y,Z] [--seconds S]
  *                [--speed X] [--reset-on-open | --no-reset-on-open]
- *                [--bootloader-ms MS] [--host-baud B] [--baud-error PCT] [--json]
+ *                [--bootloader-ms MS] [--host-baud B] [--baud-error HOST[,AVR]] [--json]
  *                [--verbose] [--imu-startup-ms MS] [--reset-at S] [--stuck-sda]
  *                [--glitch T] [--hang-at S]
  *
@@ -114,6 +114,7 @@ typedef struct options {
 	double bootloader_ms;
 	double host_baud;       /* 0: the rate the host set on the pty */
 	double baud_error_pct;  /* the host end's clock error */
+	double avr_baud_error_pct; /* the AVR end's (its resonator or crystal) */
 } options_t;
 
 static void usage(FILE *f)
@@ -123,7 +124,7 @@ static void usage(FILE *f)
 		"                [--flex-mv MV] [--flex-swing LO,HI] [--no-imu] [--seed N]\n"
 		"                [--noise | --no-noise] [--eeprom-bias X,Y,Z] [--seconds S]\n"
 		"                [--speed X] [--reset-on-open | --no-reset-on-open]\n"
-		"                [--bootloader-ms MS] [--host-baud B] [--baud-error PCT]\n"
+		"                [--bootloader-ms MS] [--host-baud B] [--baud-error HOST[,AVR]]\n"
 		"                [--json] [--verbose] [faults]\n"
 		"Runs the firmware ELF on a simulated ATmega328P at 16 MHz with a virtual\n"
 		"MPU-9250/AK8963 on I2C, a flex voltage on A0 and UART0 on a pty.\n"
@@ -152,7 +153,8 @@ static void usage(FILE *f)
 		"                  (default 1505: Optiboot's)\n"
 		"  --host-baud B   the rate the host's bridge is asked for, 300..2000000\n"
 		"                  (default: what the host set on the pty)\n"
-		"  --baud-error PCT  the host end's clock error in percent, -10..10 (default 0)\n"
+		"  --baud-error HOST[,AVR]  each end's clock error in percent, -10..10 (default 0):\n"
+		"                  the host's bridge, and the AVR's resonator as its UART sees it\n"
 		"  --json          print a JSON report on stdout at the end\n"
 		"  --verbose       show simavr's own messages\n"
 		"faults (firmware/sim/README.md):\n"
@@ -178,18 +180,36 @@ static int parse_double(const char *s, double *out)
 	return 0;
 }
 
-/* "LO,HI" millivolts with 0 <= LO < HI <= VCC. */
-static int parse_swing(const char *s, double *lo, double *hi)
+/* "A" or "A,B": how many numbers were read (1 or 2; *b untouched with 1), -1 if not numbers. */
+static int parse_pair(const char *s, double *a, double *b)
 {
 	char buf[64];
 	const char *comma = strchr(s, ',');
-	if (!comma || (size_t)(comma - s) >= sizeof(buf))
+	size_t n = comma ? (size_t)(comma - s) : strlen(s);
+	if (n >= sizeof(buf))
 		return -1;
-	memcpy(buf, s, (size_t)(comma - s));
-	buf[comma - s] = '\0';
-	if (parse_double(buf, lo) < 0 || parse_double(comma + 1, hi) < 0)
+	memcpy(buf, s, n);
+	buf[n] = '\0';
+	if (parse_double(buf, a) < 0 || (comma && parse_double(comma + 1, b) < 0))
+		return -1;
+	return comma ? 2 : 1;
+}
+
+/* "LO,HI" millivolts with 0 <= LO < HI <= VCC. */
+static int parse_swing(const char *s, double *lo, double *hi)
+{
+	if (parse_pair(s, lo, hi) != 2)
 		return -1;
 	return *lo >= 0 && *lo < *hi && *hi <= VCC_MV ? 0 : -1;
+}
+
+/* "HOST[,AVR]": each end's clock error in percent, -10..10; AVR 0 if not given. */
+static int parse_baud_errors(const char *s, double *host, double *avr)
+{
+	*avr = 0.0;
+	if (parse_pair(s, host, avr) < 0)
+		return -1;
+	return fabs(*host) <= MAX_BAUD_ERROR_PCT && fabs(*avr) <= MAX_BAUD_ERROR_PCT ? 0 : -1;
 }
 
 static void die_usage(const char *fmt, const char *arg)
@@ -330,9 +350,8 @@ static void parse_options(int argc, char **argv, options_t *o)
 					  optarg);
 			break;
 		case 'E':
-			if (parse_double(optarg, &o->baud_error_pct) < 0 ||
-			    fabs(o->baud_error_pct) > MAX_BAUD_ERROR_PCT)
-				die_usage("--baud-error takes a percentage -10..10, not '%s'", optarg);
+			if (parse_baud_errors(optarg, &o->baud_error_pct, &o->avr_baud_error_pct) < 0)
+				die_usage("--baud-error takes HOST[,AVR]: percentages -10..10, not '%s'", optarg);
 			break;
 		default: usage(stderr); exit(2);
 		}
@@ -586,7 +605,8 @@ static double avr_baud(const board_t *b)
 {
 	const uint8_t *d = b->avr->data;
 	unsigned ubrr = (unsigned)(d[UBRR0H_ADDR] & 0x0F) << 8 | d[UBRR0L_ADDR];
-	return avr_uart_baud(F_CPU, ubrr, d[UCSR0A_ADDR] >> U2X0_BIT & 1);
+	return avr_uart_baud(F_CPU, ubrr, d[UCSR0A_ADDR] >> U2X0_BIT & 1) *
+	       (1.0 + b->opt.avr_baud_error_pct / 100.0);
 }
 
 /* The rate on the wire from the host's bridge; 0 while unknown. */

@@ -172,15 +172,17 @@ def count_answers(port: serial.Serial, asks: int, seconds: float) -> tuple[int, 
     return sum(isinstance(p, P.Hello) for p in got), sum(isinstance(p, P.RawSample) for p in got)
 
 
-@pytest.mark.parametrize("error_pct, answered", [
-    (1.4, True),    # within table 20-3's +-1.5% (8 data bits, U2X0 = 1)
-    (1.6, False),
-    (-1.6, False),  # the AVR misreads the host; the CP2104 still reads the AVR (1.63% of +-2%)
+@pytest.mark.parametrize("errors_pct, answered", [
+    ("1.4", True),    # within table 20-3's +-1.5% (8 data bits, U2X0 = 1)
+    ("1.6", False),
+    ("-1.6", False),  # the AVR misreads the host; the CP2104 still reads the AVR (1.63% of +-2%)
+    ("0,-1.6", False),  # the AVR's own clock 1.6% slow: the host is 1.63% fast to it
+    ("0.8,0.8", True),  # both ends off alike: they agree
 ])
 def test_the_avr_reads_the_host_only_within_its_receivers_tolerance(
-        boardsim, elf, tmp_path, error_pct, answered):
+        boardsim, elf, tmp_path, errors_pct, answered):
     with running_board(boardsim, elf, tmp_path, "--no-reset-on-open", "--flex-mv", "2000",
-                       "--baud-error", str(error_pct)) as board:
+                       "--baud-error", errors_pct) as board:
         port = streaming_port(board.link)
         hellos, samples = count_answers(port, 3, 0.6)
         port.close()
@@ -208,7 +210,8 @@ def test_the_bridge_makes_its_rate_from_its_48_mhz_clock(boardsim, elf, tmp_path
 @pytest.mark.parametrize("args, words", [
     (("--bootloader-ms", "-1"), "--bootloader-ms takes milliseconds 0..10000, not '-1'"),
     (("--host-baud", "100"), "--host-baud takes a baud rate 300..2000000 (the CP2104's range), not '100'"),
-    (("--baud-error", "11"), "--baud-error takes a percentage -10..10, not '11'"),
+    (("--baud-error", "11"), "--baud-error takes HOST[,AVR]: percentages -10..10, not '11'"),
+    (("--baud-error", "0,x"), "--baud-error takes HOST[,AVR]: percentages -10..10, not '0,x'"),
     (("--seed", "-3"), "--seed takes a whole number"),
 ])
 def test_bad_serial_line_option_is_a_clear_error(boardsim, tmp_path, args, words):
