@@ -167,6 +167,11 @@ class StatusLine:
         else:
             print(text, file=sys.stderr, flush=True)
 
+    def say(self, text: str) -> None:
+        """A line of its own, above the live line."""
+        print(("\r\x1b[K" if self.tty else "") + text, file=sys.stderr, flush=True)
+        self._next = 0.0
+
     def done(self) -> None:
         if self.tty:
             print(file=sys.stderr)
@@ -239,6 +244,7 @@ def cmd_monitor(args: argparse.Namespace) -> int:
     last: P.RawSample | P.FusedSample | None = None
     corrected: Corrected | None = None
     fusion = MonitorFusion()
+    reported = P.BoardError.NONE  # every error bit the board's HELLOs carried
     with open_source(args) as (link, _):
         cal, notice = load_for_hello(link.hello, virtual=args.virtual)  # raw samples shown and fused calibrated
         if args.mode == "fused":
@@ -252,6 +258,10 @@ def cmd_monitor(args: argparse.Namespace) -> int:
                     if isinstance(s, P.RawSample):
                         corrected = cal.apply(s)
                         fusion.feed(s, corrected)
+                errors = link.hello.errors if link.hello else P.BoardError.NONE
+                for line in P.board_error_lines(errors & ~reported):
+                    status.say(line)
+                reported |= errors
                 shown = corrected if isinstance(last, P.RawSample) else None
                 status.show(_health_text(link) + sample_text(last, shown)
                             + (f"  {fusion.status}" if fusion.status else ""))
@@ -266,13 +276,15 @@ def cmd_monitor(args: argparse.Namespace) -> int:
                   "hello": link.hello.to_json() if link.hello else None, "last": sample_json(last),
                   "last_calibrated": corrected_json(corrected) if isinstance(last, P.RawSample) else None,
                   "calibration": _calibration_json(cal, notice, link.hello),
-                  "link": h.to_json(), "seconds": elapsed, "magnetometer": fusion.status or None}
+                  "link": h.to_json(), "seconds": elapsed, "magnetometer": fusion.status or None,
+                  "board_errors": [bit.name for bit in P.BOARD_ERROR_ADVICE if bit in reported]}
     if args.json:
         print(json.dumps(report))
     else:
         print(f"{report['frames']} frames, {h.rate_hz:.1f} Hz, {stats.dropped} dropped, "
               f"{stats.crc_errors} CRC errors, {stats.bytes_skipped} bytes skipped"
-              + (f"; {fusion.status}" if fusion.status else ""))
+              + (f"; {fusion.status}" if fusion.status else "")
+              + (f"; the board reported {', '.join(report['board_errors'])}" if reported else ""))
     return 0
 
 

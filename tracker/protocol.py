@@ -77,6 +77,27 @@ class BoardError(IntFlag):
     OVERRUN = 0x10  # the sample loop missed its deadline
 
 
+# What a maker checks when the board reports each error bit (README, "First bench test").
+BOARD_ERROR_ADVICE = {
+    BoardError.IMU_MISSING: "the IMU does not answer: check SDA on A4, SCL on A5, the breakout's "
+                            "VIN and GND, and AD0 low (address 0x68); the board retries every second",
+    BoardError.I2C_FAILURE: "an I2C transfer failed: a loose IMU cable or a drop-out of the breakout's "
+                            "power; the board set the IMU up again",
+    BoardError.MAG_MISSING: "no magnetometer answers: an MPU-6500 family chip has none and play goes on "
+                            "without it; on an MPU-9250 breakout check its power",
+    BoardError.FLEX_RAIL: "the flex reading sits at a rail: check the flex sensor's plug and the "
+                          "op-amp circuit on A0 (Vref 2.5 V, Rf 51 kOhm)",
+    BoardError.OVERRUN: "the board missed a sample's time: a rate above what it sustains, a "
+                        "stalled I2C bus, or the IMU set up again after an I2C failure",
+}
+
+
+def board_error_lines(errors: BoardError) -> list[str]:
+    """One line per error bit set: its name and what to check."""
+    return [f"board reports {bit.name}: {advice}" for bit, advice in BOARD_ERROR_ADVICE.items()
+            if bit in errors]
+
+
 # The highest rate the EnergyBall board sustains in each mode: 90% of its CPU (the I2C
 # bus at 100 kHz, the on-board filter) and of its UART, as the firmware computes it
 # (firmware/energyball/src/eb_budget.h; tests/firmware checks the two agree).

@@ -3,10 +3,11 @@
  *
  *   boardsim ELF [--pty LINK] [--motion CSV] [--interp linear|hold]
  *                [--flex-mv MV] [--flex-swing LO,HI] [--no-imu] [--seed N]
- *                [--no-noise] [--eeprom-bias X,Y,Z] [--seconds S] [--speed X]
- *                [--no-reset-on-open] [--bootloader-ms MS] [--host-baud B]
- *                [--baud-error-pct P] [--json] [--verbose] [--imu-startup-ms MS]
- *                [--reset-at S] [--imu-glitch-at S] [--hang-at S]
+ *                [--noise | --no-noise] [--eeprom-bias X,Y,Z] [--seconds S]
+ *                [--speed X] [--reset-on-open | --no-reset-on-open]
+ *                [--bootloader-ms MS] [--host-baud B] [--baud-error HOST[,AVR]] [--json]
+ *                [--verbose] [--imu-startup-ms MS] [--reset-at S] [--stuck-sda]
+ *                [--glitch T] [--hang-at S]
  *
  * The board (simavr 1.6, 16 MHz): a virtual MPU-9250 + AK8963 on the TWI
  * bus (imu.c), a flex voltage on ADC0 with AVCC = AREF = 5 V, UART0 bridged
@@ -51,6 +52,7 @@
 #include "imu.h"
 #include "motion.h"
 #include "phases.h"
+#include "recovery.h"
 #include "serial_line.h"
 
 DEFINE_FIFO(uint8_t, uart_pty_fifo); /* accessors of the pty part's byte queues */
@@ -81,6 +83,9 @@ DEFINE_FIFO(uint8_t, uart_pty_fifo); /* accessors of the pty part's byte queues 
 #define HOST_BAUD_MIN 300.0        /* the CP2104's range, data sheet sec. 6.1 */
 #define HOST_BAUD_MAX 2000000.0
 #define MAX_BAUD_ERROR_PCT 10.0
+/* --stuck-sda: a due reset waits for the next MPU read byte this long at most (the
+ * firmware reads the MPU every sample period, 5 ms at 200 Hz, while it runs). */
+#define RESET_IN_READ_WAIT_S 0.02
 
 /* ---------------------------------------------------------------- options */
 
@@ -101,13 +106,15 @@ typedef struct options {
 	int json;
 	int verbose;
 	double imu_startup_ms; /* the MPU's start-up time after power-on */
-	double reset_at;  /* > 0: reset the AVR at the first MPU read byte from then on */
+	double reset_at;  /* > 0: reset the AVR then (--stuck-sda: in the next MPU read byte) */
+	int stuck_sda;    /* resets land in an MPU read byte, and the MPU holds SDA low */
 	double glitch_at; /* > 0: the IMU's supply drops out and comes back then */
 	double hang_at;   /* > 0: the CPU is sent into an endless loop then */
 	int no_reset_on_open;
 	double bootloader_ms;
 	double host_baud;       /* 0: the rate the host set on the pty */
 	double baud_error_pct;  /* the host end's clock error */
+	double avr_baud_error_pct; /* the AVR end's (its resonator or crystal) */
 } options_t;
 
 static void usage(FILE *f)
@@ -115,9 +122,10 @@ static void usage(FILE *f)
 	fprintf(f,
 		"usage: boardsim ELF [--pty LINK] [--motion CSV] [--interp linear|hold]\n"
 		"                [--flex-mv MV] [--flex-swing LO,HI] [--no-imu] [--seed N]\n"
-		"                [--no-noise] [--eeprom-bias X,Y,Z] [--seconds S] [--speed X]\n"
-		"                [--no-reset-on-open] [--bootloader-ms MS] [--host-baud B]\n"
-		"                [--baud-error-pct P] [--json] [--verbose] [faults]\n"
+		"                [--noise | --no-noise] [--eeprom-bias X,Y,Z] [--seconds S]\n"
+		"                [--speed X] [--reset-on-open | --no-reset-on-open]\n"
+		"                [--bootloader-ms MS] [--host-baud B] [--baud-error HOST[,AVR]]\n"
+		"                [--json] [--verbose] [faults]\n"
 		"Runs the firmware ELF on a simulated ATmega328P at 16 MHz with a virtual\n"
 		"MPU-9250/AK8963 on I2C, a flex voltage on A0 and UART0 on a pty.\n"
 		"  --pty LINK      make LINK a symlink to the UART's pty (open it at the sketch's rate)\n"
@@ -130,28 +138,34 @@ static void usage(FILE *f)
 		"  --no-imu        nothing answers on the I2C bus\n"
 		"  --seed N        seed of the sensors' noise and offsets and of the garbling of\n"
 		"                  bytes a receiver cannot read (default 1)\n"
+		"  --noise         the data sheets' noise, zero-rate offsets and the gyroscope's\n"
+		"                  start-up transient (the default)\n"
 		"  --no-noise      ideal sensors: no noise, zero-rate offset or start-up transient\n"
 		"  --eeprom-bias X,Y,Z  a saved gyro bias (counts) in EEPROM at power-up\n"
 		"  --seconds S     run S simulated seconds (at most 1e6), then exit (default:\n"
 		"                  until killed)\n"
 		"  --speed X       simulated seconds per wall second, 0 or at least 0.001\n"
 		"                  (default 1 with --pty, else 0 = as fast as possible)\n"
+		"  --reset-on-open the host opening the pty resets the board, and the bootloader\n"
+		"                  runs first, as on a Metro Mini (the default)\n"
 		"  --no-reset-on-open  the host opening the pty does not reset the board\n"
-		"                  (default: it does, and the bootloader runs first)\n"
 		"  --bootloader-ms MS  the bootloader's time after a reset, 0..10000\n"
 		"                  (default 1505: Optiboot's)\n"
 		"  --host-baud B   the rate the host's bridge is asked for, 300..2000000\n"
 		"                  (default: what the host set on the pty)\n"
-		"  --baud-error-pct P  the host end's clock error in percent, -10..10 (default 0)\n"
+		"  --baud-error HOST[,AVR]  each end's clock error in percent, -10..10 (default 0):\n"
+		"                  the host's bridge, and the AVR's resonator as its UART sees it\n"
 		"  --json          print a JSON report on stdout at the end\n"
 		"  --verbose       show simavr's own messages\n"
 		"faults (firmware/sim/README.md):\n"
 		"  --imu-startup-ms MS  the MPU answers MS ms after power-on, 0..1000 (default 100,\n"
 		"                  the data sheet's maximum)\n"
-		"  --reset-at S    reset the AVR in the first MPU read from S seconds on: the MPU\n"
-		"                  holds SDA low (the sketch restarts at once; a host's open adds\n"
-		"                  the bootloader's time)\n"
-		"  --imu-glitch-at S  the IMU's supply drops out at S: registers to reset values\n"
+		"  --reset-at S    reset the AVR at S seconds (the sketch restarts at once; a host's\n"
+		"                  open adds the bootloader's time); a reset in an MPU read leaves\n"
+		"                  the MPU holding SDA low\n"
+		"  --stuck-sda     the host's open and --reset-at reset the AVR in the middle of an\n"
+		"                  MPU read byte, so the MPU holds SDA low (the worst moment)\n"
+		"  --glitch T      the IMU's supply drops out at T seconds: registers to reset values\n"
 		"  --hang-at S     the CPU falls into an endless loop at S (only a watchdog gets out)\n");
 }
 
@@ -166,18 +180,36 @@ static int parse_double(const char *s, double *out)
 	return 0;
 }
 
-/* "LO,HI" millivolts with 0 <= LO < HI <= VCC. */
-static int parse_swing(const char *s, double *lo, double *hi)
+/* "A" or "A,B": how many numbers were read (1 or 2; *b untouched with 1), -1 if not numbers. */
+static int parse_pair(const char *s, double *a, double *b)
 {
 	char buf[64];
 	const char *comma = strchr(s, ',');
-	if (!comma || (size_t)(comma - s) >= sizeof(buf))
+	size_t n = comma ? (size_t)(comma - s) : strlen(s);
+	if (n >= sizeof(buf))
 		return -1;
-	memcpy(buf, s, (size_t)(comma - s));
-	buf[comma - s] = '\0';
-	if (parse_double(buf, lo) < 0 || parse_double(comma + 1, hi) < 0)
+	memcpy(buf, s, n);
+	buf[n] = '\0';
+	if (parse_double(buf, a) < 0 || (comma && parse_double(comma + 1, b) < 0))
+		return -1;
+	return comma ? 2 : 1;
+}
+
+/* "LO,HI" millivolts with 0 <= LO < HI <= VCC. */
+static int parse_swing(const char *s, double *lo, double *hi)
+{
+	if (parse_pair(s, lo, hi) != 2)
 		return -1;
 	return *lo >= 0 && *lo < *hi && *hi <= VCC_MV ? 0 : -1;
+}
+
+/* "HOST[,AVR]": each end's clock error in percent, -10..10; AVR 0 if not given. */
+static int parse_baud_errors(const char *s, double *host, double *avr)
+{
+	*avr = 0.0;
+	if (parse_pair(s, host, avr) < 0)
+		return -1;
+	return fabs(*host) <= MAX_BAUD_ERROR_PCT && fabs(*avr) <= MAX_BAUD_ERROR_PCT ? 0 : -1;
 }
 
 static void die_usage(const char *fmt, const char *arg)
@@ -209,6 +241,7 @@ static void parse_options(int argc, char **argv, options_t *o)
 		{ "flex-swing", required_argument, 0, 'w' },
 		{ "seed", required_argument, 0, 'S' },
 		{ "no-noise", no_argument, 0, 'q' },
+		{ "noise", no_argument, 0, 'N' },
 		{ "eeprom-bias", required_argument, 0, 'e' },
 		{ "seconds", required_argument, 0, 's' },
 		{ "speed", required_argument, 0, 'x' },
@@ -217,12 +250,14 @@ static void parse_options(int argc, char **argv, options_t *o)
 		{ "help", no_argument, 0, 'h' },
 		{ "imu-startup-ms", required_argument, 0, 'u' },
 		{ "reset-at", required_argument, 0, 'r' },
-		{ "imu-glitch-at", required_argument, 0, 'g' },
+		{ "glitch", required_argument, 0, 'g' },
+		{ "stuck-sda", no_argument, 0, 'D' },
 		{ "hang-at", required_argument, 0, 'H' },
 		{ "no-reset-on-open", no_argument, 0, 'R' },
+		{ "reset-on-open", no_argument, 0, 'O' },
 		{ "bootloader-ms", required_argument, 0, 'B' },
 		{ "host-baud", required_argument, 0, 'b' },
-		{ "baud-error-pct", required_argument, 0, 'E' },
+		{ "baud-error", required_argument, 0, 'E' },
 		{ 0, 0, 0, 0 },
 	};
 	memset(o, 0, sizeof(*o));
@@ -239,6 +274,7 @@ static void parse_options(int argc, char **argv, options_t *o)
 		case 'm': o->motion = optarg; break;
 		case 'n': o->no_imu = 1; break;
 		case 'q': o->no_noise = 1; break;
+		case 'N': o->no_noise = 0; break;
 		case 'e': {
 			int x, y, z;
 			char end;
@@ -297,9 +333,11 @@ static void parse_options(int argc, char **argv, options_t *o)
 				die_usage("--imu-startup-ms takes milliseconds 0..1000, not '%s'", optarg);
 			break;
 		case 'r': parse_fault_time("--reset-at", optarg, &o->reset_at); break;
-		case 'g': parse_fault_time("--imu-glitch-at", optarg, &o->glitch_at); break;
+		case 'g': parse_fault_time("--glitch", optarg, &o->glitch_at); break;
+		case 'D': o->stuck_sda = 1; break;
 		case 'H': parse_fault_time("--hang-at", optarg, &o->hang_at); break;
 		case 'R': o->no_reset_on_open = 1; break;
+		case 'O': o->no_reset_on_open = 0; break;
 		case 'B':
 			if (parse_double(optarg, &o->bootloader_ms) < 0 || o->bootloader_ms < 0 ||
 			    o->bootloader_ms > MAX_BOOTLOADER_MS)
@@ -312,9 +350,8 @@ static void parse_options(int argc, char **argv, options_t *o)
 					  optarg);
 			break;
 		case 'E':
-			if (parse_double(optarg, &o->baud_error_pct) < 0 ||
-			    fabs(o->baud_error_pct) > MAX_BAUD_ERROR_PCT)
-				die_usage("--baud-error-pct takes a percentage -10..10, not '%s'", optarg);
+			if (parse_baud_errors(optarg, &o->baud_error_pct, &o->avr_baud_error_pct) < 0)
+				die_usage("--baud-error takes HOST[,AVR]: percentages -10..10, not '%s'", optarg);
 			break;
 		default: usage(stderr); exit(2);
 		}
@@ -327,6 +364,9 @@ static void parse_options(int argc, char **argv, options_t *o)
 }
 
 /* ---------------------------------------------------------------- board state */
+
+/* A reset due: the sketch restarts at once (--reset-at), or after the bootloader (DTR). */
+typedef enum { RESET_NONE, RESET_PLAIN, RESET_BOOT } reset_kind_t;
 
 typedef struct board {
 	avr_t *avr;
@@ -353,8 +393,14 @@ typedef struct board {
 	i2cbus_t bus;             /* timing, SDA held, bus clear, pull-ups */
 	int i2c_target;           /* 7-bit address being talked to, -1 none */
 	int i2c_reading;          /* the target was addressed for a read */
-	int fault_reset_pending;  /* --reset-at: reset after this instruction */
+	reset_kind_t fault_reset_pending; /* reset after this instruction */
+	reset_kind_t reset_in_read;       /* --stuck-sda: a reset due at the next MPU read byte */
+	double reset_in_read_by;          /* or at this simulated time at the latest */
 	uint64_t resets;          /* AVR resets after power-on (DTR, --reset-at, watchdog) */
+	recovery_t recovery;      /* each fault and the first good sample after it */
+	double read_start_s;      /* the newest read phase (D8) began then */
+	double handed_read_s;     /* the sample last handed to Serial (D10) was read then */
+	unsigned long long opens_seen;
 	int i2c_busy;
 	uint64_t i2c_busy_since;
 	uint64_t i2c_bus_cycles;  /* simulated bus time, cycles */
@@ -436,9 +482,9 @@ static void i2c_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 		imu_write(&b->imu, (uint8_t)b->i2c_target, m.u.twi.data);
 		i2c_reply(b, TWI_COND_ACK, m.u.twi.addr, 1);
 	} else if (msg & TWI_COND_READ) {
-		if (b->opt.reset_at > 0 && sim_seconds(b) >= b->opt.reset_at && b->i2c_target == MPU_ADDR) {
-			b->opt.reset_at = 0; /* once */
-			b->fault_reset_pending = 1;
+		if (b->reset_in_read && b->i2c_target == MPU_ADDR) {
+			b->fault_reset_pending = b->reset_in_read; /* the MPU is sending: on_avr_reset */
+			b->reset_in_read = RESET_NONE;
 		}
 		uint8_t v = imu_read(&b->imu, (uint8_t)b->i2c_target);
 		i2c_reply(b, TWI_COND_READ, m.u.twi.addr, v);
@@ -466,6 +512,7 @@ static void on_avr_reset(void *param)
 	b->i2c_target = -1;
 	b->i2c_busy = 0;
 	b->resets++;
+	recovery_restart(&b->recovery);
 	for (int i = 0; i < PHASE_COUNT; i++)
 		b->phases.p[i].high = 0; /* the reset cleared PORTB; an open phase is not counted */
 }
@@ -526,8 +573,13 @@ static void pin_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 {
 	board_t *b = param;
 	int pin = (int)irq->irq; /* IOPORT_IRQ_PIN0 + n */
-	if (pin >= 0 && pin < PHASE_COUNT)
-		phases_edge(&b->phases.p[pin], (int)value, b->avr->cycle, b->i2c_bus_cycles);
+	if (pin < 0 || pin >= PHASE_COUNT)
+		return;
+	phases_edge(&b->phases.p[pin], (int)value, b->avr->cycle, b->i2c_bus_cycles);
+	if (value && pin == PHASE_READ)
+		b->read_start_s = sim_seconds(b);
+	if (value && pin == PHASE_SEND)
+		b->handed_read_s = b->read_start_s; /* recovery.h: the sample just read */
 }
 
 static void attach_pins(board_t *b)
@@ -553,7 +605,8 @@ static double avr_baud(const board_t *b)
 {
 	const uint8_t *d = b->avr->data;
 	unsigned ubrr = (unsigned)(d[UBRR0H_ADDR] & 0x0F) << 8 | d[UBRR0L_ADDR];
-	return avr_uart_baud(F_CPU, ubrr, d[UCSR0A_ADDR] >> U2X0_BIT & 1);
+	return avr_uart_baud(F_CPU, ubrr, d[UCSR0A_ADDR] >> U2X0_BIT & 1) *
+	       (1.0 + b->opt.avr_baud_error_pct / 100.0);
 }
 
 /* The rate on the wire from the host's bridge; 0 while unknown. */
@@ -623,6 +676,20 @@ static void reset_into_bootloader(board_t *b)
 	avr_raise_irq(avr_io_getirq(b->avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON), 1);
 	b->boot_until = b->avr->cycle + (uint64_t)llround(b->opt.bootloader_ms * (F_CPU / 1000.0));
 	b->dtr_resets++;
+	pthread_mutex_lock(&b->host_lock);
+	b->reset_pending = 0;
+	pthread_mutex_unlock(&b->host_lock);
+}
+
+/* A reset is due: at once, or with --stuck-sda in the next MPU read byte (i2c_hook). */
+static void reset_due(board_t *b, reset_kind_t kind)
+{
+	if (!b->opt.stuck_sda) {
+		b->fault_reset_pending = kind;
+		return;
+	}
+	b->reset_in_read = kind;
+	b->reset_in_read_by = sim_seconds(b) + RESET_IN_READ_WAIT_S;
 }
 
 /* What the host did to its end since the last simulated millisecond. */
@@ -630,12 +697,13 @@ static void watch_host(board_t *b)
 {
 	if (!b->has_pty)
 		return;
-	if (host_holds_reset(b)) {
-		reset_into_bootloader(b);
-		pthread_mutex_lock(&b->host_lock);
-		b->reset_pending = 0;
-		pthread_mutex_unlock(&b->host_lock);
+	int holds_reset = host_holds_reset(b);
+	if (b->host.opened != b->opens_seen) {
+		b->opens_seen = b->host.opened;
+		recovery_event(&b->recovery, "open", sim_seconds(b), 0);
 	}
+	if (holds_reset && b->fault_reset_pending != RESET_BOOT && b->reset_in_read != RESET_BOOT)
+		reset_due(b, RESET_BOOT);
 	b->host_baud = host_port_baud(&b->host);
 }
 
@@ -664,7 +732,9 @@ static void uart_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 {
 	(void)irq;
 	board_t *b = param;
-	frames_feed(&b->uart, (uint8_t)value);
+	int type = frames_feed(&b->uart, (uint8_t)value);
+	if (type == EB_RAW || type == EB_FUSED)
+		recovery_sample(&b->recovery, b->handed_read_s, sim_seconds(b));
 	if (!b->has_pty)
 		return;
 	if (b->host.opens == 0) {
@@ -871,12 +941,23 @@ static void step_faults(board_t *b)
 {
 	double now = sim_seconds(b);
 	i2cbus_tick_ms(&b->bus);
+	if (b->opt.reset_at > 0 && now >= b->opt.reset_at) {
+		b->opt.reset_at = 0;
+		recovery_event(&b->recovery, "reset", now, 1);
+		reset_due(b, RESET_PLAIN);
+	}
+	if (b->reset_in_read && now >= b->reset_in_read_by) { /* no MPU read came */
+		b->fault_reset_pending = b->reset_in_read;
+		b->reset_in_read = RESET_NONE;
+	}
 	if (b->opt.glitch_at > 0 && now >= b->opt.glitch_at) {
 		b->opt.glitch_at = 0;
+		recovery_event(&b->recovery, "glitch", now, 1);
 		imu_power_on(&b->imu, now);
 	}
 	if (b->opt.hang_at > 0 && now >= b->opt.hang_at) {
 		b->opt.hang_at = 0;
+		recovery_event(&b->recovery, "hang", now, 1);
 		hang_cpu(b->avr);
 	}
 }
@@ -899,8 +980,12 @@ static end_t run(board_t *b, double wall_start)
 		if (state == cpu_Crashed)
 			return END_CRASHED;
 		if (b->fault_reset_pending) {
-			b->fault_reset_pending = 0;
-			avr_reset(avr); /* on_avr_reset sees it */
+			reset_kind_t kind = b->fault_reset_pending;
+			b->fault_reset_pending = RESET_NONE;
+			if (kind == RESET_BOOT)
+				reset_into_bootloader(b);
+			else
+				avr_reset(avr); /* on_avr_reset sees it */
 		}
 		if (avr->cycle >= limit)
 			return END_SECONDS;
@@ -1007,7 +1092,9 @@ static void print_json(FILE *f, const board_t *b, end_t end, double wall)
 		(unsigned long long)b->i2c_bytes, (unsigned long long)b->i2c_bus_cycles, F_CPU / i2cbus_scl_cycles(b->avr),
 		(unsigned long long)b->bus.stuck, (unsigned long long)b->bus.cleared,
 		i2cbus_blocked(&b->bus) ? "true" : "false", (unsigned long long)b->bus.pullup_ms);
-	fprintf(f, "  \"resets\": %llu,\n", (unsigned long long)b->resets);
+	fprintf(f, "  \"resets\": %llu,\n  \"recovery\": ", (unsigned long long)b->resets);
+	recovery_json(f, &b->recovery);
+	fprintf(f, ",\n");
 	json_imu(f, b);
 	fprintf(f, "  \"phases\": {\n");
 	for (int i = 0; i < PHASE_COUNT; i++)
@@ -1076,6 +1163,7 @@ int main(int argc, char **argv)
 	if (!b->avr)
 		return 2;
 	frames_init(&b->uart);
+	recovery_init(&b->recovery);
 	b->rng = b->opt.seed ^ 0x9E3779B97F4A7C15ull;
 	if (b->rng == 0)
 		b->rng = 0x9E3779B97F4A7C15ull; /* xorshift stays at 0 from 0 */

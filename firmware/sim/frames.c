@@ -18,9 +18,10 @@ static void drop(frame_counter_t *fc, unsigned n)
 
 /*
  * Judge the buffer from its start. Returns 1 if it made progress (bytes
- * dropped or a frame accepted), 0 if it needs more bytes.
+ * dropped or a frame accepted), 0 if it needs more bytes; *accepted is the
+ * type of a frame accepted.
  */
-static int scan_once(frame_counter_t *fc)
+static int scan_once(frame_counter_t *fc, int *accepted)
 {
 	if (fc->len < 2)
 		return 0;
@@ -50,16 +51,19 @@ static int scan_once(frame_counter_t *fc)
 	fc->by_type[type]++;
 	if (type == EB_HELLO) /* errors: the u16 at payload offset 12 */
 		fc->hello_errors |= (uint16_t)(fc->buf[EB_HEADER_SIZE + 12] | fc->buf[EB_HEADER_SIZE + 13] << 8);
+	*accepted = type;
 	drop(fc, total);
 	return 1;
 }
 
-void frames_feed(frame_counter_t *fc, uint8_t byte)
+int frames_feed(frame_counter_t *fc, uint8_t byte)
 {
+	int accepted = -1;
 	fc->bytes++;
 	if (fc->len == sizeof(fc->buf))
 		drop(fc, 1); /* cannot happen: see frame_counter_t */
 	fc->buf[fc->len++] = byte;
-	while (scan_once(fc))
+	while (scan_once(fc, &accepted))
 		;
+	return accepted;
 }

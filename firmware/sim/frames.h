@@ -31,6 +31,7 @@ typedef struct frame_counter {
 } frame_counter_t;
 
 void frames_init(frame_counter_t *fc);
-void frames_feed(frame_counter_t *fc, uint8_t byte);
+/* Take one byte; returns the type of the frame it completed, or -1. */
+int frames_feed(frame_counter_t *fc, uint8_t byte);
 
 #endif

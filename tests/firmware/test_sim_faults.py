@@ -47,10 +47,11 @@ def test_the_imu_is_found_within_its_start_up_time(boardsim, elf):
 
 
 def test_a_reset_in_the_middle_of_a_read_does_not_lose_the_imu(boardsim, elf):
-    """--reset-at: the AVR restarts while the MPU is sending; the MPU holds SDA low until
-    nine clocks and a STOP (UM10204 sec. 3.1.16). The board must clear the bus and stream."""
-    r = run_to_end(boardsim, elf, "--seconds", "3", "--reset-at", "1.0", "--flex-mv", FLEX_MV,
-                   *TYPICAL_STARTUP)
+    """--reset-at --stuck-sda: the AVR restarts while the MPU is sending; the MPU holds SDA
+    low until nine clocks and a STOP (UM10204 sec. 3.1.16). The board must clear the bus
+    and stream."""
+    r = run_to_end(boardsim, elf, "--seconds", "3", "--reset-at", "1.0", "--stuck-sda",
+                   "--flex-mv", FLEX_MV, *TYPICAL_STARTUP)
     bus = r["i2c"]
     assert r["resets"] == 1 and bus["stuck"] == 1
     assert bus["cleared"] >= 1 and not bus["blocked"], bus
@@ -72,9 +73,9 @@ def test_a_hung_board_is_reset_by_the_watchdog(boardsim, elf):
 
 def test_the_avr_pull_ups_stay_off(boardsim, elf):
     """A 3.3 V breakout must not see the AVR's 5 V internal pull-ups (firmware/README.md)."""
-    r = run_to_end(boardsim, elf, "--seconds", "1.5", "--reset-at", "1.0", "--flex-mv", FLEX_MV,
-                   *TYPICAL_STARTUP)
-    assert r["i2c"]["pullup_ms"] == 0, r["i2c"]
+    r = run_to_end(boardsim, elf, "--seconds", "1.5", "--reset-at", "1.0", "--stuck-sda",
+                   "--flex-mv", FLEX_MV, *TYPICAL_STARTUP)
+    assert r["i2c"]["stuck"] == 1 and r["i2c"]["pullup_ms"] == 0, r["i2c"]
 
 
 def test_the_bus_runs_at_100_khz_within_the_sample_budget(boardsim, elf):
@@ -105,7 +106,7 @@ def _packets(board_link: Path, seconds: float) -> list:
 
 
 def test_an_imu_supply_glitch_never_yields_wrong_data(boardsim, elf, tmp_path):
-    """--imu-glitch-at: the IMU's supply drops out; every register of the MPU and the
+    """--glitch: the IMU's supply drops out; every register of the MPU and the
     AK8963 is back at its reset value (+-2 g, +-250 deg/s, bypass off), and the MPU
     answers again after its typical start-up time, 11 ms. No sample may claim +-16 g
     with +-2 g counts, no magnetometer reading may be sent as valid once stale, and
@@ -115,7 +116,7 @@ def test_an_imu_supply_glitch_never_yields_wrong_data(boardsim, elf, tmp_path):
                      "4,0,0,0,0,0,9.81,40,20,-40\n")
     glitch_s = 1.2
     with running_board(boardsim, elf, tmp_path, "--motion", str(field), "--flex-mv", FLEX_MV,
-                       "--imu-glitch-at", str(glitch_s), "--imu-startup-ms", "11",
+                       "--glitch", str(glitch_s), "--imu-startup-ms", "11",
                        "--no-noise", "--no-reset-on-open") as board:
         packets = _packets(board.link, 2.6)
         report = board.report()
@@ -141,7 +142,7 @@ def test_an_imu_supply_glitch_never_yields_wrong_data(boardsim, elf, tmp_path):
 @pytest.mark.parametrize("args, words", [
     (("--reset-at", "0"), "--reset-at takes a time in seconds above 0 and up to 1e6, not '0'"),
     (("--hang-at", "x"), "--hang-at takes a time in seconds above 0 and up to 1e6, not 'x'"),
-    (("--imu-glitch-at", "-1"), "--imu-glitch-at takes a time in seconds above 0 and up to 1e6, not '-1'"),
+    (("--glitch", "-1"), "--glitch takes a time in seconds above 0 and up to 1e6, not '-1'"),
     (("--imu-startup-ms", "2000"), "--imu-startup-ms takes milliseconds 0..1000, not '2000'"),
 ])
 def test_bad_fault_option_is_a_clear_error(boardsim, tmp_path, args, words):
@@ -158,7 +159,7 @@ def test_fused_mode_integrates_the_time_of_samples_it_could_not_take(boardsim, e
     csv.write_text("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,9.81\n"
                    f"{turn_from},0,0,0,0,0,9.81\n{turn_from + 0.001},0,0,1,0,0,9.81\n")
     with running_board(boardsim, elf, tmp_path, "--motion", str(csv), "--interp", "linear",
-                       "--no-noise", "--flex-mv", FLEX_MV, "--imu-glitch-at", str(turn_from + 1.0),
+                       "--no-noise", "--flex-mv", FLEX_MV, "--glitch", str(turn_from + 1.0),
                        *TYPICAL_STARTUP) as board:
         with Link(LinkSettings(port=str(board.link), reconnect=False, mode=P.Mode.FUSED,
                                rate_hz=100)) as link:

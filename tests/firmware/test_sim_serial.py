@@ -50,7 +50,7 @@ def read_frames(port: serial.Serial, seconds: float, start: float) -> list[tuple
 
 def test_opening_the_port_resets_the_board_and_the_bootloader_swallows_the_hosts_bytes(
         boardsim, elf, tmp_path):
-    with running_board(boardsim, elf, tmp_path) as board:
+    with running_board(boardsim, elf, tmp_path, "--reset-on-open") as board:  # the default
         time.sleep(0.8)  # the board boots once by itself and streams into the unopened pty
         port = serial.Serial(str(board.link), P.DEFAULT_BAUD, timeout=0.02)
         opened = time.monotonic()
@@ -90,6 +90,23 @@ def test_a_reconnect_to_the_same_port_does_not_reset_the_board_again(boardsim, e
     assert hello is not None and hello.streaming is False  # the running sketch answered IDENTIFY
     assert sample is not None and sample.seq > before.seq  # its count ran on: no power-up
     assert handshake_s < OPTIBOOT_S / 2, f"the reconnect took {handshake_s:.2f} s"
+
+
+def test_an_open_that_resets_the_board_in_the_middle_of_a_read_leaves_a_bus_it_clears(
+        boardsim, elf, tmp_path):
+    """--stuck-sda: the host's open resets the AVR while the MPU is sending a byte, the worst
+    moment: the MPU, not reset, holds SDA low (UM10204 sec. 3.1.16). After Optiboot's time
+    the sketch must clear the bus and stream, not report IMU_MISSING until a power cycle."""
+    with running_board(boardsim, elf, tmp_path, "--stuck-sda", "--flex-mv", "2000") as board:
+        time.sleep(0.8)  # the board boots by itself and reads the MPU every 5 ms
+        with Link(LinkSettings(port=str(board.link), reconnect=False)) as link:
+            hello = link.hello
+            got = list(link.samples(1.0))
+        report = board.report()
+    assert (report["line"]["resets"], report["i2c"]["stuck"]) == (1, 1), report["i2c"]
+    assert report["i2c"]["cleared"] >= 1 and not report["i2c"]["blocked"], report["i2c"]
+    assert hello is not None and not hello.errors, hello
+    assert len(got) >= 190, f"{len(got)} samples in 1 s at 200 Hz"
 
 
 def test_the_9600_baud_fallback_finds_a_text_board_without_resetting_it(
@@ -155,15 +172,17 @@ def count_answers(port: serial.Serial, asks: int, seconds: float) -> tuple[int, 
     return sum(isinstance(p, P.Hello) for p in got), sum(isinstance(p, P.RawSample) for p in got)
 
 
-@pytest.mark.parametrize("error_pct, answered", [
-    (1.4, True),    # within table 20-3's +-1.5% (8 data bits, U2X0 = 1)
-    (1.6, False),
-    (-1.6, False),  # the AVR misreads the host; the CP2104 still reads the AVR (1.63% of +-2%)
+@pytest.mark.parametrize("errors_pct, answered", [
+    ("1.4", True),    # within table 20-3's +-1.5% (8 data bits, U2X0 = 1)
+    ("1.6", False),
+    ("-1.6", False),  # the AVR misreads the host; the CP2104 still reads the AVR (1.63% of +-2%)
+    ("0,-1.6", False),  # the AVR's own clock 1.6% slow: the host is 1.63% fast to it
+    ("0.8,0.8", True),  # both ends off alike: they agree
 ])
 def test_the_avr_reads_the_host_only_within_its_receivers_tolerance(
-        boardsim, elf, tmp_path, error_pct, answered):
+        boardsim, elf, tmp_path, errors_pct, answered):
     with running_board(boardsim, elf, tmp_path, "--no-reset-on-open", "--flex-mv", "2000",
-                       "--baud-error-pct", str(error_pct)) as board:
+                       "--baud-error", errors_pct) as board:
         port = streaming_port(board.link)
         hellos, samples = count_answers(port, 3, 0.6)
         port.close()
@@ -191,7 +210,8 @@ def test_the_bridge_makes_its_rate_from_its_48_mhz_clock(boardsim, elf, tmp_path
 @pytest.mark.parametrize("args, words", [
     (("--bootloader-ms", "-1"), "--bootloader-ms takes milliseconds 0..10000, not '-1'"),
     (("--host-baud", "100"), "--host-baud takes a baud rate 300..2000000 (the CP2104's range), not '100'"),
-    (("--baud-error-pct", "11"), "--baud-error-pct takes a percentage -10..10, not '11'"),
+    (("--baud-error", "11"), "--baud-error takes HOST[,AVR]: percentages -10..10, not '11'"),
+    (("--baud-error", "0,x"), "--baud-error takes HOST[,AVR]: percentages -10..10, not '0,x'"),
     (("--seed", "-3"), "--seed takes a whole number"),
 ])
 def test_bad_serial_line_option_is_a_clear_error(boardsim, tmp_path, args, words):
