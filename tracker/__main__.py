@@ -70,8 +70,10 @@ def add_source_options(p: argparse.ArgumentParser, modes: bool = True) -> None:
     src.add_argument("--virtual", action="store_true", help="use a virtual board on a pty")
     p.add_argument("--baud", type=BAUD, help=f"baud rate, {BAUD.text} (default: 500000, falling back to 9600; "
                    "115200 for EnergyBall firmware built before 500000 became its rate)")
-    p.add_argument("--rate", type=RATE, help=f"samples per second to ask for, {RATE.text} (200, or the "
-                   f"board's fused-mode limit, {P.BOARD_MAX_RATE_HZ[P.Mode.FUSED]}, in fused mode)")
+    p.add_argument("--rate", type=RATE, help=f"samples per second to ask for, {RATE.text} (default "
+                   f"{P.default_rate_hz(P.Mode.RAW)} raw, {P.default_rate_hz(P.Mode.FUSED)} fused; the "
+                   f"board takes at most {P.BOARD_MAX_RATE_HZ[P.Mode.RAW]} and "
+                   f"{P.BOARD_MAX_RATE_HZ[P.Mode.FUSED]})")
     if modes:
         p.add_argument("--mode", choices=["raw", "fused"], default="raw",
                        help="raw sensor counts, or the board's own fused orientation")

@@ -103,7 +103,7 @@ def board_error_lines(errors: BoardError) -> list[str]:
 # (firmware/energyball/src/eb_budget.h; tests/firmware checks the two agree).
 # The board answers SET_RATE above it, or SET_MODE to a mode whose limit is below the
 # present rate, with BAD_ARGUMENT (PROTOCOL.md sec. 6).
-BOARD_MAX_RATE_HZ = {Mode.RAW: 228, Mode.FUSED: 161}
+BOARD_MAX_RATE_HZ = {Mode.RAW: 265, Mode.FUSED: 205}
 BOOT_RATE_HZ = 200  # the board's rate after power-up (PROTOCOL.md sec. 7.1), what the host asks for by default
 
 

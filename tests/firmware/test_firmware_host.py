@@ -11,10 +11,12 @@ import struct
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from tracker import protocol as P
 from tracker.flex import FlexCircuit
 from tracker.fusion import make
+from tracker.fusion.complementary import ComplementaryState
 from tracker.sim import Simulator, arm_chain, arm_swing, mpu9250
 
 from .firmware_lib import (Command, Filter, Fused, Grid, Hello, Mag, Parser, Rail, Raw, State,
@@ -332,18 +334,18 @@ def test_uart_runs_at_the_baud_the_ubrr_gives(lib, baud, real):
 
 def test_rate_limits_follow_the_clocks_as_worked_by_hand(lib):
     """eb_budget.h's model, worked by hand. At 100 kHz an SCL period is 160 cycles; a RAW
-    sample costs 13000 + 192 x 160 + 7700 + 32 x 140 = 55900 cycles and the AK8963's 100
+    sample costs 5200 + 192 x 160 + 7700 + 32 x 140 = 48100 cycles and the AK8963's 100
     reads a second 100 x 102 x 160 = 1632000, so 90% of 16 MHz holds
-    (14400000 - 1632000) / 55900 = 228.4 samples a second; the link at 115200 baud
+    (14400000 - 1632000) / 48100 = 265.5 samples a second; the link at 115200 baud
     (really 117647) carries 117647 / 10 x 0.9 / 32 = 330.9, so RAW is CPU-bound. FUSED reads
-    no magnetometer: 13000 + 30720 + 42500 + 22 x 140 = 89300 cycles, 161.3 a second. At
+    no magnetometer: 5200 + 30720 + 31000 + 22 x 140 = 70000 cycles, 205.7 a second. At
     400 kHz (40 cycles a bit) RAW is link-bound at 115200 baud."""
     rate = lambda mode, i2c, baud: lib.eb_max_rate_hz(mode, 16_000_000, i2c, baud)  # noqa: E731
-    assert rate(0, 100_000, 115200) == 228
-    assert rate(1, 100_000, 115200) == 161
+    assert rate(0, 100_000, 115200) == 265
+    assert rate(1, 100_000, 115200) == 205
     assert rate(0, 400_000, 115200) == 330
-    assert rate(1, 400_000, 115200) == 14_400_000 // (13000 + 192 * 40 + 42500 + 22 * 140)
-    assert rate(0, 400_000, 500_000) == (14_400_000 - 100 * 102 * 40) // (13000 + 192 * 40 + 7700 + 32 * 140)
+    assert rate(1, 400_000, 115200) == 14_400_000 // (5200 + 192 * 40 + 31000 + 22 * 140)
+    assert rate(0, 400_000, 500_000) == (14_400_000 - 100 * 102 * 40) // (5200 + 192 * 40 + 7700 + 32 * 140)
 
 
 # ------------------------------------------------------------------ complementary filter
@@ -369,6 +371,85 @@ def test_c_filter_matches_the_python_complementary_filter(lib):
         worst = max(worst, max(abs(x - y) for x, y in zip(f.q, q_py)))
     assert worst < 1e-4, worst
     assert abs(math.hypot(*f.q) - 1.0) < 1e-6
+
+
+FULL_SCALE_RAD_S = math.radians(2000.0)
+U = 2.0 ** -24  # float's unit roundoff
+
+
+def c_step(lib, q, levelled: bool, gyr, acc, dt: float) -> np.ndarray:
+    """One eb_filter_update from state (q, levelled)."""
+    f = Filter()
+    lib.eb_filter_init(C.byref(f), 0.999)
+    f.q[:] = [float(x) for x in F32(q)]
+    f.levelled = levelled
+    g, a = np.asarray(gyr, F32), np.asarray(acc, F32)
+    lib.eb_filter_update(C.byref(f), g.ctypes.data_as(C.POINTER(C.c_float)),
+                         a.ctypes.data_as(C.POINTER(C.c_float)), F32(dt))
+    return np.array(f.q)
+
+
+def py_step(q, levelled: bool, gyr, acc, dt: float) -> np.ndarray:
+    """The same step of the Python filter (float64), from the float32 inputs the C one sees."""
+    py = make("complementary")
+    py.set_state(ComplementaryState(q=tuple(float(x) for x in F32(q)), levelled=levelled))
+    return np.array(py.update([float(x) for x in F32(gyr)], [float(x) for x in F32(acc)], None,
+                              float(F32(dt))))
+
+
+def random_unit(rng: np.random.Generator, n: int) -> np.ndarray:
+    v = rng.normal(size=(n, 3))
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def test_c_filter_gyro_step_matches_scipy_over_the_full_range(lib):
+    """The gyroscope's rotation (no accelerometer) up to all three axes at full scale,
+    2000 deg/s, over 5 ms (the series, up to 0.30 rad) and 25 ms (beyond 0.35 rad: sinf and
+    cosf), from random orientations: q * exp(w dt / 2) as scipy composes it, to float rounding."""
+    rng = np.random.default_rng(15)
+    n = 400
+    rates = rng.uniform(-FULL_SCALE_RAD_S, FULL_SCALE_RAD_S, size=(n, 3))
+    rates[: n // 4] = FULL_SCALE_RAD_S * np.sign(rates[: n // 4])  # the corners: |w| = 60.5 rad/s
+    starts = Rotation.random(n, random_state=16)
+    worst = 0.0
+    for dt in (0.005, 0.025):
+        for w, r0 in zip(rates, starts):
+            q0 = np.roll(r0.as_quat(), 1)  # scipy is scalar last
+            got = c_step(lib, q0, True, w, (0.0, 0.0, 0.0), dt)
+            r0 = Rotation.from_quat(np.roll(F32(q0), -1))
+            want = np.roll((r0 * Rotation.from_rotvec(F32(w).astype(float) * float(F32(dt)))).as_quat(), 1)
+            worst = max(worst, min(np.abs(got - want).max(), np.abs(got + want).max()))
+    assert worst < 8 * U, worst / U
+
+
+def test_c_filter_tilt_paths_match_the_python_filter(lib):
+    """One levelled step (and one first step) with the gyroscope anywhere in its range and the
+    specific force tilted from up within the series' 11.3 degrees, just either side of that
+    edge and beyond it, from random orientations; and upside down, a half-turn tilt (the exact
+    path's special case) and nearly so, from the identity: there the tilt's axis is the
+    horizontal part of v, which float rounding of a rotated v would decide, so v is given
+    exactly. The C filter equals the Python one to float rounding on every path."""
+    rng = np.random.default_rng(17)
+    n = 200
+    starts = np.roll(Rotation.random(n, random_state=18).as_quat(), 1, axis=1)
+    rates = rng.uniform(-FULL_SCALE_RAD_S, FULL_SCALE_RAD_S, size=(n, 3))
+    cases = []
+    for q0, w, d in zip(starts, rates, random_unit(rng, n)):
+        axis = np.cross([0.0, 0.0, 1.0], d)
+        axis /= np.linalg.norm(axis)
+        world_to_body = Rotation.from_quat(np.roll(q0, -1)).inv()
+        for tilt in (0.0, 0.1, np.arctan(0.2) - 1e-4, np.arctan(0.2) + 1e-4, 1.0, 2.5):
+            v = Rotation.from_rotvec(axis * tilt).apply([0.0, 0.0, 9.81])
+            cases.append((q0, w, world_to_body.apply(v)))
+        for down in ((0.0, 0.0, -9.81), (1e-4, -2e-4, -9.81), (0.05, 0.0, -9.81)):
+            cases.append(((1.0, 0.0, 0.0, 0.0), w, down))
+    worst = {True: 0.0, False: 0.0}
+    for q0, w, acc in cases:
+        for levelled in (True, False):
+            got = c_step(lib, q0, levelled, w, acc, 0.005)
+            want = py_step(q0, levelled, w, acc, 0.005)
+            worst[levelled] = max(worst[levelled], np.abs(got - want).max())
+    assert max(worst.values()) < 8 * U, {k: v / U for k, v in worst.items()}
 
 
 def test_c_filter_levels_from_the_first_sample_and_skips_a_zero_accelerometer(lib):

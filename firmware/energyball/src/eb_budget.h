@@ -4,8 +4,8 @@
  *
  * One sample costs the CPU, in cycles at F_CPU:
  *   EB_READ_CYCLES                  the read phase besides the bus: the Wire library's
- *                                   code and 4 flex conversions (4 x 13 ADC clocks at
- *                                   125 kHz = 416 us, ATmega328P data sheet sec. 24.4)
+ *                                   code and the interrupts of 4 flex conversions (which
+ *                                   run during the bus transfer)
  *   EB_MPU_BITS x SCL               the MPU-9250's burst: the CPU waits for the bus
  *   EB_RAW_CYCLES / EB_FUSED_CYCLES compute and send (filter, framing, copy to Serial)
  *   frame bytes x EB_UART_ISR_CYCLES the UART's data-register-empty interrupt per byte
@@ -42,13 +42,16 @@ extern "C" {
  * data sheet sec. 6.1). */
 #define EB_BAUD 500000ul
 
-/* Measured with firmware/sim/boardsim at 100 kHz (README.md, "Rate limits"): read
- * 11441 (RAW, 200 Hz) and 10423 (FUSED, 100 Hz) besides the bus, compute + send
- * 3857 + 3772 (RAW) and 38817 + 2575 (FUSED), with some margin; at 500000 baud the
- * UART's interrupts (EB_UART_ISR_CYCLES a byte, counted apart) fall into these phases. */
-#define EB_READ_CYCLES 13000u
+/* Measured with firmware/sim/boardsim at 100 kHz and 500000 baud, 200 Hz, a still board
+ * with the data sheets' noise (firmware/README.md, "Rate limits"): read 4575 (RAW) and
+ * 3682 (FUSED) besides the bus, compute + send 2296 + 5242 (RAW) and 26325 + 3555
+ * (FUSED), with some margin; the UART's interrupts (EB_UART_ISR_CYCLES a byte, counted
+ * apart) fall into these phases. A FUSED sample whose tilt is more than 11 degrees off
+ * takes the filter's exact path, up to 3000 cycles more (firmware/README.md): the 10%
+ * that EB_BUDGET_PERCENT keeps covers it. */
+#define EB_READ_CYCLES 5200u
 #define EB_RAW_CYCLES 7700u
-#define EB_FUSED_CYCLES 42500u
+#define EB_FUSED_CYCLES 31000u
 /* I2C bits: 9 SCL periods a byte (8 bits and the acknowledge, NXP UM10204 sec. 3.1.6)
  * and one per START, repeated START or STOP condition. The MPU-9250's burst (address,
  * register, address again, 18 bytes from INT_PIN_CFG, imu.cpp) is (3 + 18) x 9 + 3;

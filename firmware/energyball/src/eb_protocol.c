@@ -4,13 +4,17 @@
 #include <math.h>
 #include <string.h>
 
+/* One byte of PROTOCOL.md sec. 2's CRC (polynomial P = x^16 + x^12 + x^5 + 1, MSB
+ * first), the eight bitwise steps at once: crc' = (crc << 8) + x x^16 mod P with
+ * x = (crc >> 8) ^ byte. As x^16 = x^12 + x^5 + 1 mod P, x x^16 = x (x^12 + x^5 + 1),
+ * whose bits 16..19, (x >> 4) x^16, reduce the same way to below x^16; so
+ * x x^16 mod P = y (x^12 + x^5 + 1) mod x^16 with y = x ^ (x >> 4). About 30 cycles a
+ * byte on the AVR instead of 100 for the bit loop. */
 static uint16_t eb_crc16_update(uint16_t crc, uint8_t byte)
 {
-    /* The bitwise step of PROTOCOL.md sec. 2 (avr-libc's _crc_xmodem_update). */
-    crc ^= (uint16_t)byte << 8;
-    for (uint8_t i = 0; i < 8; i++)
-        crc = (crc & 0x8000u) ? (uint16_t)((crc << 1) ^ 0x1021u) : (uint16_t)(crc << 1);
-    return crc;
+    uint8_t x = (uint8_t)(crc >> 8) ^ byte;
+    x ^= (uint8_t)(x >> 4);
+    return (uint16_t)((crc << 8) ^ ((uint16_t)x << 12) ^ ((uint16_t)x << 5) ^ x);
 }
 
 uint16_t eb_crc16(const uint8_t *data, size_t n, uint16_t crc)

@@ -58,7 +58,9 @@ void eb_ak_parse(const uint8_t data[AK_READ_LEN], const uint8_t asa[3], eb_mag_t
 
 float eb_flex_deg(float adc)
 {
-    return -(adc - 390.0f) / 3.0f;
+    /* times the float nearest 1/3 (within u/3 of it) instead of a division: 1 ulp at most
+     * from the quotient, 350 cycles fewer on the AVR; the frame carries 0.01 degree */
+    return (390.0f - adc) * (1.0f / 3.0f);
 }
 
 uint8_t eb_flex_rail_seconds(uint16_t adc)
