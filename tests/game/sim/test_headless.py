@@ -140,7 +140,7 @@ def test_a_broken_profile_file_is_one_clear_line(tmp_path):
 
 def _board_bytes(edit_after: float | None, gesture: bool = True) -> bytes:
     """A board on a script that gets a gesture from 2.3 s: planned before the start, or only after
-    ``edit_after`` seconds were sent (the samples to 3 s are computed ahead by then, so those the
+    ``edit_after`` seconds were sent (the samples to 4 s are computed ahead by then, so those the
     gesture touches must be computed again)."""
     from tracker.sim_board import SimBoard
     from game.sim.motion_model import PlayerProfile, Script
