@@ -195,14 +195,17 @@ class _Block:
 
     index: int
     counts: list[Counts]
-    values: tuple[list[list[float]], ...] = ()  # acc, gyr, mag, q (per sample) and the flex ADC
+    acc: list[list[float]] = field(default_factory=list)
+    gyr: list[list[float]] = field(default_factory=list)
+    mag: list[list[float]] = field(default_factory=list)
+    q: list[list[float]] = field(default_factory=list)
+    adc: list[int] = field(default_factory=list)
 
     def reading(self, i: int) -> SensorReading:
         """Sample ``i``'s reading."""
-        acc, gyr, mag, q, adc = (v[i] for v in self.values)
-        return SensorReading(acc=(acc[0], acc[1], acc[2]), gyr=(gyr[0], gyr[1], gyr[2]),
-                             mag=(mag[0], mag[1], mag[2]), flex_deg=0.0, flex_adc=int(adc),
-                             q=(q[0], q[1], q[2], q[3]))
+        a, g, m, q = self.acc[i], self.gyr[i], self.mag[i], self.q[i]
+        return SensorReading(acc=(a[0], a[1], a[2]), gyr=(g[0], g[1], g[2]), mag=(m[0], m[1], m[2]),
+                             flex_deg=0.0, flex_adc=self.adc[i], q=(q[0], q[1], q[2], q[3]))
 
 
 class SimulatedMaker:
@@ -287,7 +290,7 @@ class SimulatedMaker:
                    for a, g, m, f in zip(counts(acc, acc_lsb(ACC_FS_G)).tolist(),
                                          counts(gyr, gyr_lsb(GYR_FS_DPS)).tolist(),
                                          counts(mag, MAG_UT_PER_COUNT).tolist(), adc)]
-        return _Block(b, counted, (acc.tolist(), gyr.tolist(), mag.tolist(), q.tolist(), adc))
+        return _Block(b, counted, acc.tolist(), gyr.tolist(), mag.tolist(), q.tolist(), adc)
 
     def raw_sample(self, t: float, seq: int = 0) -> RawSample:
         """The raw sample the board sends at board time ``t``: :meth:`reading` quantised as the firmware
