@@ -77,7 +77,7 @@ TUMBLE_SPIN_S = 4.0  # a turn of the tumble's spin (90 deg/s), drawn within +-20
 TUMBLE_SWING_S = 48.0  # the spin axis tilts from the field's direction to its opposite and back
 EASE_S = 1.0  # the tumble's smooth start
 NUDGE_DEG, NUDGE_S = 8.0, 0.4
-BLOCK_S = 1.0  # simulated at once: a block's own cost is about that of 100 samples; a prompt that changes
+BLOCK_S = 3.0  # simulated at once: a block's own cost is about that of 100 samples; a prompt that changes
 # the motion within a block computed has it computed again (SimulatedMaker._replan), the same up to the change
 FACE_AXES = {"+x": (1.0, 0.0, 0.0), "-x": (-1.0, 0.0, 0.0), "+y": (0.0, 1.0, 0.0),
              "-y": (0.0, -1.0, 0.0), "+z": (0.0, 0.0, 1.0), "-z": (0.0, 0.0, -1.0)}
