@@ -77,7 +77,7 @@ TUMBLE_SPIN_S = 4.0  # a turn of the tumble's spin (90 deg/s), drawn within +-20
 TUMBLE_SWING_S = 48.0  # the spin axis tilts from the field's direction to its opposite and back
 EASE_S = 1.0  # the tumble's smooth start
 NUDGE_DEG, NUDGE_S = 8.0, 0.4
-BLOCK_S = 1.0  # simulated at once: a block's own cost is about that of 100 samples; a prompt that changes
+BLOCK_S = 3.0  # simulated at once: a block's own cost is about that of 100 samples; a prompt that changes
 # the motion within a block computed has it computed again (SimulatedMaker._replan), the same up to the change
 FACE_AXES = {"+x": (1.0, 0.0, 0.0), "-x": (-1.0, 0.0, 0.0), "+y": (0.0, 1.0, 0.0),
              "-y": (0.0, -1.0, 0.0), "+z": (0.0, 0.0, 1.0), "-z": (0.0, 0.0, -1.0)}
@@ -189,11 +189,23 @@ Counts = tuple[tuple[int, int, int], tuple[int, int, int], tuple[int, int, int],
 
 @dataclass(frozen=True)
 class _Block:
-    """Samples simulated together: their index (block number), readings and the board's counts."""
+    """Samples simulated together: their index (block number), the board's counts and, as plain
+    lists, the readings' values (a :class:`tracker.motion.SensorReading` is made only when asked
+    for: the offline procedures take the counts alone)."""
 
     index: int
-    readings: list[SensorReading]
     counts: list[Counts]
+    acc: list[list[float]] = field(default_factory=list)
+    gyr: list[list[float]] = field(default_factory=list)
+    mag: list[list[float]] = field(default_factory=list)
+    q: list[list[float]] = field(default_factory=list)
+    adc: list[int] = field(default_factory=list)
+
+    def reading(self, i: int) -> SensorReading:
+        """Sample ``i``'s reading."""
+        a, g, m, q = self.acc[i], self.gyr[i], self.mag[i], self.q[i]
+        return SensorReading(acc=(a[0], a[1], a[2]), gyr=(g[0], g[1], g[2]), mag=(m[0], m[1], m[2]),
+                             flex_deg=0.0, flex_adc=self.adc[i], q=(q[0], q[1], q[2], q[3]))
 
 
 class SimulatedMaker:
@@ -218,7 +230,7 @@ class SimulatedMaker:
                                     Motion(self._root, lambda t: np.zeros((len(t), 0))), self.errors, seed=seed)
         self._stream: SampleStream = self._simulator.stream(rate_hz)
         self._block_n = max(1, int(BLOCK_S * rate_hz))  # samples per block
-        self._cache = _Block(-1, [], [])
+        self._cache = _Block(-1, [])
         self._epoch = 0.0  # the maker's time at the board's latest power-up
         self._board_t = 0.0  # the board's latest time asked for
         self.now = 0.0  # the maker's time of the latest reading
@@ -242,48 +254,50 @@ class SimulatedMaker:
 
     def reading(self, t: float) -> SensorReading:
         """What the board's sensors read at board time ``t`` (errors included, not yet quantised)."""
-        if t == 0.0 and self._board_t > 0.0:  # a probe (the hello), or a power-up: now, unchanged
-            return self._at(self.now)
+        self._advance(t)
+        block, i = self._sample(self.now)
+        return block.reading(i)
+
+    def _advance(self, t: float) -> None:
+        """The maker's clock at board time ``t``: a probe at 0 (the hello, or a power-up) leaves it
+        where it is; a board time going back is a power-up (the maker's world goes on)."""
+        if t == 0.0 and self._board_t > 0.0:
+            return
         if t < self._board_t:  # the board powered up again
             self._epoch = self.now + 1.0 / self.rate_hz
         self._board_t = t
         self.now = self._epoch + t
-        return self._at(self.now)
 
-    def _at(self, t: float) -> SensorReading:
-        return self._sample(t)[0]
-
-    def _sample(self, t: float) -> tuple[SensorReading, Counts]:
-        """The reading at the maker's time ``t`` and its counts as the board quantises them."""
+    def _sample(self, t: float) -> tuple[_Block, int]:
+        """The block holding the sample at the maker's time ``t``, and its row there."""
         b, i = divmod(round(t * self.rate_hz), self._block_n)
         cache = self._cache  # once: follow() in another thread may drop it meanwhile
         if cache.index != b:
             cache = self._cache = self._block(b)
-        return cache.readings[i], cache.counts[i]
+        return cache, i
 
     def _block(self, b: int) -> _Block:
-        """Block ``b`` of samples simulated, as readings and as the board's counts
-        (:func:`tracker.board.quantise`'s rule, at the firmware's default full scales)."""
+        """Block ``b`` of samples simulated, as the board's counts (:func:`tracker.board.quantise`'s
+        rule, at the firmware's default full scales) and the readings' values."""
         n = self._block_n
         data = self._stream.block(b * n, (b + 1) * n)
         acc, gyr, mag = data.acc[:, 0], data.gyr[:, 0], data.mag[:, 0]
         q = data.truth.q_sensors[:, 0]
         if self.magnet is not None:
             mag = mag + Q.rotate(Q.conjugate(q), self.magnet.at(data.t))
-        counted = zip(counts(acc, acc_lsb(ACC_FS_G)).tolist(), counts(gyr, gyr_lsb(GYR_FS_DPS)).tolist(),
-                      counts(mag, MAG_UT_PER_COUNT).tolist())
-        readings = [SensorReading(acc=(a[0], a[1], a[2]), gyr=(g[0], g[1], g[2]), mag=(m[0], m[1], m[2]),
-                                  flex_deg=0.0, flex_adc=int(f), q=(w[0], w[1], w[2], w[3]))
-                    for a, g, m, f, w in zip(acc.tolist(), gyr.tolist(), mag.tolist(), data.flex_adc.tolist(),
-                                             q.tolist())]
-        return _Block(b, readings, [((a[0], a[1], a[2]), (g[0], g[1], g[2]), (m[0], m[1], m[2]), r.flex_adc)
-                                    for (a, g, m), r in zip(counted, readings)])
+        adc = data.flex_adc.tolist()
+        counted = [((a[0], a[1], a[2]), (g[0], g[1], g[2]), (m[0], m[1], m[2]), int(f))
+                   for a, g, m, f in zip(counts(acc, acc_lsb(ACC_FS_G)).tolist(),
+                                         counts(gyr, gyr_lsb(GYR_FS_DPS)).tolist(),
+                                         counts(mag, MAG_UT_PER_COUNT).tolist(), adc)]
+        return _Block(b, counted, acc.tolist(), gyr.tolist(), mag.tolist(), q.tolist(), adc)
 
     def raw_sample(self, t: float, seq: int = 0) -> RawSample:
         """The raw sample the board sends at board time ``t``: :meth:`reading` quantised as the firmware
         does (:func:`tracker.board.quantise`), at its default full scales."""
-        self.reading(t)
-        acc, gyr, mag, flex = self._sample(self.now)[1]
+        self._advance(t)
+        block, i = self._sample(self.now)
+        acc, gyr, mag, flex = block.counts[i]
         return RawSample(t, round(t * 1e6) & 0xFFFFFFFF, seq & 0xFFFF, acc, gyr, mag, flex, ACC_FS_G, GYR_FS_DPS)
 
     # ------------------------------------------------------------------ following the prompts
@@ -293,7 +307,7 @@ class SimulatedMaker:
         kept = tuple(s for s in self._plan if s.t0 < segment.t0)
         self._plan = kept + (segment,)
         if (self._cache.index + 1) * self._block_n >= segment.t0 * self.rate_hz:
-            self._cache = _Block(-1, [], [])
+            self._cache = _Block(-1, [])
 
     def _where(self, t: float) -> Array:
         return self._root(np.array([t]))[0]

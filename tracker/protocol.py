@@ -379,20 +379,32 @@ def _fs_code(table: tuple[int, ...], value: int, what: str) -> int:
         raise ValueError(f"{what} full scale {value} is not one of {table}") from None
 
 
+def raw_flags(flex_adc: int, acc_fs_g: int, gyr_fs_dps: int, has_mag: bool = True,
+              mag_overflow: bool = False) -> int:
+    """A raw frame's flags word: the flex ADC, the full-scale codes and the magnetometer's bits."""
+    flags = (flex_adc & FLEX_ADC_MASK) \
+        | _fs_code(ACC_FS_G, acc_fs_g, "accelerometer") << _ACC_FS_SHIFT \
+        | _fs_code(GYR_FS_DPS, gyr_fs_dps, "gyroscope") << _GYR_FS_SHIFT
+    if has_mag:
+        flags |= _MAG_VALID_BIT
+    if mag_overflow:
+        flags |= _MAG_OVERFLOW_BIT
+    return flags
+
+
+def encode_raw_counts(t_us: int, seq: int, acc: tuple[int, int, int], gyr: tuple[int, int, int],
+                      mag: tuple[int, int, int], flags: int) -> bytes:
+    """A raw sample frame from its fields as sent (``flags`` from :func:`raw_flags`): for a
+    board that knows its flags word ahead, without making a :class:`RawSample` first."""
+    payload = _RAW.pack(t_us & 0xFFFFFFFF, seq & 0xFFFF, *acc, *gyr, *mag, flags)
+    return _RAW_HEAD + payload + _CRC.pack(crc16(payload, _RAW_HEAD_CRC))
+
+
 def encode_raw(s: RawSample) -> bytes:
     """Encode a raw sample frame (the decoder's exact inverse)."""
     _, t_us, seq, acc, gyr, mag, flex, acc_fs_g, gyr_fs_dps, overflow, _ = s
-    flags = (flex & FLEX_ADC_MASK) \
-        | _fs_code(ACC_FS_G, acc_fs_g, "accelerometer") << _ACC_FS_SHIFT \
-        | _fs_code(GYR_FS_DPS, gyr_fs_dps, "gyroscope") << _GYR_FS_SHIFT
-    if mag is None:
-        mag = (0, 0, 0)
-    else:
-        flags |= _MAG_VALID_BIT
-    if overflow:
-        flags |= _MAG_OVERFLOW_BIT
-    payload = _RAW.pack(t_us & 0xFFFFFFFF, seq & 0xFFFF, *acc, *gyr, *mag, flags)
-    return _RAW_HEAD + payload + _CRC.pack(crc16(payload, _RAW_HEAD_CRC))
+    flags = raw_flags(flex, acc_fs_g, gyr_fs_dps, mag is not None, overflow)
+    return encode_raw_counts(t_us, seq, acc, gyr, (0, 0, 0) if mag is None else mag, flags)
 
 
 def _q14(x: float) -> int:

@@ -21,8 +21,9 @@ from .sim import STENCIL_REACH_S, Simulator
 
 RATE_HZ = BoardSettings.rate_hz  # the firmware's defaults
 ACC_FS_G, GYR_FS_DPS = BoardSettings.acc_fs_g, BoardSettings.gyr_fs_dps
-BLOCK = 200  # samples the simulator computes ahead at once (1 s)
-Counts = tuple[tuple[int, int, int], tuple[int, int, int], tuple[int, int, int], int]  # acc, gyr, mag, flex ADC
+BLOCK = 800  # samples the simulator computes ahead at once (4 s): a change of the motion within them has the rest computed again
+Counts = tuple[tuple[int, int, int], tuple[int, int, int], tuple[int, int, int], int]  # acc, gyr, mag, flags
+# (the raw frame's flags word: the flex ADC, the full scales and the magnetometer's valid bit)
 
 
 @dataclass
@@ -79,9 +80,8 @@ class SimBoard:
 
     def _frame(self, k: int, t: float) -> bytes:
         seq, self._seq = self._seq, (self._seq + 1) & 0xFFFF
-        acc, gyr, mag, flex = self._reading(k)
-        return P.encode_raw(P.RawSample(t, round(t * 1e6) & 0xFFFFFFFF, seq, acc, gyr, mag, flex,
-                                        ACC_FS_G, GYR_FS_DPS))
+        acc, gyr, mag, flags = self._reading(k)
+        return P.encode_raw_counts(round(t * 1e6) & 0xFFFFFFFF, seq, acc, gyr, mag, flags)
 
     def _send(self, frame: bytes) -> bytes:
         wire = self.injector.apply(frame)
@@ -111,10 +111,12 @@ class SimBoard:
         return self._readings[i]
 
     def _compute(self, k0: int, k1: int) -> list[Counts]:
-        """Samples k0..k1-1 as the MPU-9250 and the ADC read them (:func:`tracker.board.quantise`'s rule)."""
+        """Samples k0..k1-1 as the MPU-9250 and the ADC read them (:func:`tracker.board.quantise`'s rule),
+        with each one's flags word."""
         data = self.stream.block(k0, k1)
         acc = counts(data.acc[:, 0], acc_lsb(ACC_FS_G)).tolist()
         gyr = counts(data.gyr[:, 0], gyr_lsb(GYR_FS_DPS)).tolist()
         mag = counts(data.mag[:, 0], P.MAG_UT_PER_COUNT).tolist()
-        return [((a[0], a[1], a[2]), (g[0], g[1], g[2]), (m[0], m[1], m[2]), int(f))
-                for a, g, m, f in zip(acc, gyr, mag, data.flex_adc)]
+        flags = P.raw_flags(0, ACC_FS_G, GYR_FS_DPS)
+        return [((a[0], a[1], a[2]), (g[0], g[1], g[2]), (m[0], m[1], m[2]), flags | (f & P.FLEX_ADC_MASK))
+                for a, g, m, f in zip(acc, gyr, mag, data.flex_adc.tolist())]

@@ -17,7 +17,7 @@ from tracker.accel_procedure import AccelProcedure, AccelStatus
 from tracker.board import BoardSettings, quantise
 from tracker.calibration import BoardCalibration, pose_label
 from tracker.mag_procedure import MagProcedure
-from tracker.maker_sim import SimulatedMaker, calibration_errors, extreme_errors
+from tracker.maker_sim import SimulatedMaker, calibration_errors, extreme_errors, run_maker
 from tracker.motion import EARTH_FIELD_UT, GRAVITY
 from tracker.sim import SCALE_TOLERANCE, realistic_errors
 
@@ -108,6 +108,19 @@ def test_its_raw_samples_are_the_boards_quantisation_of_its_readings():
         t = k / 200.0
         raw = maker.raw_sample(t, seq=k)
         assert raw == quantise(maker.reading(t), t, round(t * 1e6), k, s.acc_fs_g, s.gyr_fs_dps)
+
+
+def test_the_six_pose_run_does_not_depend_on_how_many_samples_are_simulated_at_once():
+    """A prompt changes the motion inside a block already simulated (it is simulated again): a
+    maker simulating 37 samples, or 10 s, at a time gives the same samples, prompts and result."""
+    runs = []
+    for block_n in (None, 37, 2000):
+        maker = SimulatedMaker(seed=6)
+        if block_n:
+            maker._block_n = block_n
+        run = run_maker(AccelProcedure(), maker)
+        runs.append((run.history, run.result.offset.tolist(), run.result.scale.tolist()))
+    assert runs[0] == runs[1] == runs[2]
 
 
 def test_the_extremes_are_the_catalogues_worst_board():

@@ -710,3 +710,18 @@ def test_text_any_bytes_never_raise_and_chunking_does_not_matter(parts, sizes):
     for s in expected:
         assert math.sqrt(sum(c * c for c in s.q)) == pytest.approx(1.0)
         assert math.isfinite(s.flex_deg)
+
+
+def test_a_raw_frames_flags_word_worked_by_hand():
+    # flex ADC 513 in bits 0-9; 16 g is accelerometer code 3 (bits 10-11), 2000 deg/s gyroscope
+    # code 3 (bits 12-13); bit 14 a magnetometer reading, bit 15 its overflow
+    assert P.raw_flags(513, 16, 2000) == 513 + (3 << 10) + (3 << 12) + (1 << 14)
+    assert P.raw_flags(513, 2, 250, has_mag=False) == 513
+    assert P.raw_flags(1023 + 1024, 4, 500, mag_overflow=True) == 1023 + (1 << 10) + (1 << 12) + (1 << 14) + (1 << 15)
+
+
+def test_a_frame_packed_from_its_fields_decodes_to_them():
+    frame = P.encode_raw_counts(123_456, 7, (1, -2, 3), (-4, 5, -6), (7, 8, -9), P.raw_flags(600, 8, 1000))
+    (s,) = P.FrameDecoder().feed(frame)
+    assert (s.t_us, s.seq, s.acc_counts, s.gyr_counts, s.mag_counts, s.flex_adc, s.acc_fs_g, s.gyr_fs_dps) \
+        == (123_456, 7, (1, -2, 3), (-4, 5, -6), (7, 8, -9), 600, 8, 1000)
