@@ -161,6 +161,66 @@ def paint_calls(surface: pygame.Surface, calls: list) -> list[pygame.Rect]:
     return [rects[0].unionall(rects[1:])] if rects else []
 
 
+class RepeatedCalls:
+    """Paint calls that come again frame after frame (the avatar standing still), painted from a picture.
+
+    The calls are cut into runs at each blit (a glow adds to what lies
+    beneath it, so it is always painted as it comes); a run of draw calls
+    equal to the last frame's is painted once onto a scratch surface on a
+    colour key and kept as a picture of the rectangle round it, and while
+    the run stays the same one blit of the picture paints it. The draw calls
+    paint opaque colours (none the key), each pixel the last call's, so the
+    picture blitted gives the same pixels as the calls, in the same
+    rectangle.
+    """
+
+    KEY = (255, 0, 255)
+
+    def __init__(self) -> None:
+        self._last: dict[int, list] = {}  # each run's calls at the last frame
+        self._kept: dict[int, tuple[list, pygame.Surface, pygame.Rect]] = {}  # run: its calls, picture, place
+        self._scratch: pygame.Surface | None = None
+
+    def paint(self, surface: pygame.Surface, calls: list) -> list[pygame.Rect]:
+        """Paint the calls (see the class's docstring); returns the rectangles painted, as :func:`paint_calls`."""
+        rects: list[pygame.Rect] = []
+        run: list = []
+        k = 0
+        for call in calls + [(pygame.Surface.blit, None)]:  # the end closes the last run
+            if call[0] is not pygame.Surface.blit:
+                run.append(call)
+                continue
+            if run:
+                rects += self._paint_run(surface, k, run)
+                k, run = k + 1, []
+            if call[1] is not None:
+                rects += paint_calls(surface, [call])
+        return [rects[0].unionall(rects[1:])] if rects else []
+
+    def _paint_run(self, surface: pygame.Surface, k: int, run: list) -> list[pygame.Rect]:
+        kept = self._kept.get(k)
+        if kept is None or kept[0] != run:
+            if self._last.get(k) != run:  # new: paint it, remember it
+                self._last[k] = run
+                self._kept.pop(k, None)
+                return paint_calls(surface, run)
+            kept = self._kept[k] = (run, *self._picture(surface, run))  # the same twice: keep a picture
+        _, picture, where = kept
+        return [surface.blit(picture, where)] if where.width and where.height else []
+
+    def _picture(self, surface: pygame.Surface, run: list) -> tuple[pygame.Surface, pygame.Rect]:
+        """The run painted on the colour key, cut to the rectangle round it, and where it goes."""
+        scratch = self._scratch
+        if scratch is None or scratch.get_size() != surface.get_size():
+            scratch = self._scratch = pygame.Surface(surface.get_size(), 0, surface)
+        scratch.fill(self.KEY)
+        rects = paint_calls(scratch, run)
+        where = rects[0].clip(scratch.get_rect()) if rects else pygame.Rect(0, 0, 0, 0)
+        picture = scratch.subsurface(where).copy() if where.width and where.height else pygame.Surface((0, 0))
+        picture.set_colorkey(self.KEY)
+        return picture, where
+
+
 def _paint_zombie(surface: pygame.Surface, record: tuple) -> list[pygame.Rect]:
     """One zombie from its record (see :meth:`Actors._zombie_records`); returns the rectangle painted."""
     legs, arms, (hip, neck, head, eye_l, eye_r), limb, torso, head_r, colours, eyes = record
@@ -225,6 +285,7 @@ class Actors:
         self.sprites = sprites
         self.rng = rng  # the held ball's crackle
         self._stride = [0.0, 0.0, None]  # phase, amplitude, last position
+        self._avatar = RepeatedCalls()  # standing still, the avatar is one blit
 
     def update_stride(self, avatar, dt: float) -> None:
         """The legs stride while the avatar moves (the skeleton has none: the tracker does not see them)."""
@@ -306,7 +367,8 @@ class Actors:
             others.append((float(frame.depth[j]), paint_calls, self._plan_held(frame, held, j), [j]))
         if g.parts and frame.visible[g.s_parts[2].start + 1]:  # the chest
             chest = g.s_parts[2].start + 1
-            others.append((float(frame.depth[chest]), paint_calls, self._plan_avatar(frame, g.parts, g.s_parts),
+            calls = self._plan_avatar(frame, g.parts, g.s_parts)
+            others.append((float(frame.depth[chest]), self._avatar.paint, calls,
                            [chest, g.s_parts[-1].start]))  # the chest and the head
         if others:
             items += [(paint, payload) for _, paint, payload, _ in others]
