@@ -465,19 +465,20 @@ class Actors:
         """Capsules, parts far to near: a dark outline pass, then the colour pass, joints as circles."""
         cam = self.camera
         line, circle = pygame.draw.line, pygame.draw.circle
-        all_depth = frame.depth[slices[0].start:slices[-1].stop].tolist()
-        base = slices[0].start
+        base, stop = slices[0].start, slices[-1].stop
+        all_depth = frame.depth[base:stop].tolist()  # the parts' points, one after another: as lists at once
+        all_pts, all_seen = frame.ixy[base:stop].tolist(), frame.visible[base:stop].tolist()
         depth = [sum(all_depth[s.start - base:s.stop - base]) / (s.stop - s.start) for s in slices]
         calls: list = []
         for k in depth_order(np.array(depth)).tolist():
             name, _, width_m, colour = parts[k]
-            s = slices[k]
-            if not frame.visible[s].all():
+            lo, hi = slices[k].start - base, slices[k].stop - base
+            if not all(all_seen[lo:hi]):
                 continue
-            pts = frame.ixy[s].tolist()
+            pts = all_pts[lo:hi]
             wpx = max(2, int(cam.f * width_m / depth[k]))
             if name == "head":  # seen from behind (the usual view): hair
-                back = frame.depth[s.start + 1] > frame.depth[s.start]
+                back = all_depth[lo + 1] > all_depth[lo]
                 calls += [(circle, (OUTLINE, pts[0], wpx // 2 + 2)),
                           (circle, (AVATAR_HAIR if back else colour, pts[0], wpx // 2))]
                 continue
