@@ -28,10 +28,17 @@ def map_rect(size: tuple[int, int]) -> pygame.Rect:
     return pygame.Rect(w - 16 - side, 16 + max(14, h // 34), side, side)
 
 
-def to_map(rect: pygame.Rect, half_size_m: float, x: float, y: float) -> tuple[int, int]:
-    """The minimap pixel of the world point (x, y): x east to the right, y north up."""
+def map_xy(rect: pygame.Rect, half_size_m: float, x, y) -> tuple:
+    """Where the world point (x, y) falls on the minimap, in fractional pixels (numbers or arrays alike): x
+    east to the right, y north up."""
     scale = rect.width / (2.0 * half_size_m)
-    return int(rect.left + (x + half_size_m) * scale), int(rect.top + (half_size_m - y) * scale)
+    return rect.left + (x + half_size_m) * scale, rect.top + (half_size_m - y) * scale
+
+
+def to_map(rect: pygame.Rect, half_size_m: float, x: float, y: float) -> tuple[int, int]:
+    """The minimap pixel of the world point (x, y) (:func:`map_xy`, whole)."""
+    mx, my = map_xy(rect, half_size_m, x, y)
+    return int(mx), int(my)
 
 
 class Minimap:
@@ -65,10 +72,9 @@ class Minimap:
         pixels as a circle drawn there (:func:`to_map`'s pixels, worked out all at once)."""
         if not xy:
             return
-        scale = rect.width / (2.0 * h)
         points = np.asarray(xy, dtype=float)
-        x = (rect.left + (points[:, 0] + h) * scale).astype(int) - radius
-        y = (rect.top + (h - points[:, 1]) * scale).astype(int) - radius
+        mx, my = map_xy(rect, h, points[:, 0], points[:, 1])
+        x, y = mx.astype(int) - radius, my.astype(int) - radius  # truncated as int() truncates
         dot = self._dot(colour, radius)
         surface.blits([(dot, p) for p in zip(x.tolist(), y.tolist())], doreturn=False)
 
