@@ -21,7 +21,7 @@ import numpy as np
 from mypy_extensions import mypyc_attr
 
 from tracker import protocol as P
-from tracker import quat as Q
+from tracker.fusion import qmath as qm
 from tracker.link import Link, LinkError, LinkHealth, LinkSettings
 
 from .avatar import Wearing
@@ -74,9 +74,9 @@ class KeyboardMouse:
         The hanging arm (-z) is raised forward about x by the elevation and then
         turned about z by minus the azimuth (azimuth positive to the right).
         """
-        arm = Q.multiply(Q.from_axis_angle((0, 0, 1), -math.radians(self.azimuth_deg)),
-                         Q.from_axis_angle((1, 0, 0), math.radians(self.elevation_deg)))
-        return tuple(float(c) for c in Q.multiply(arm, Q.conjugate(self.mount)))  # type: ignore[return-value]
+        half = 0.5 * math.radians(self.elevation_deg)  # scalar maths: numpy's per-call cost is most of this
+        arm = qm.mul(qm.about_z(-math.radians(self.azimuth_deg)), (math.cos(half), math.sin(half), 0.0, 0.0))
+        return qm.mul(arm, qm.conj(qm.as_quat(self.mount)))
 
 
 @dataclass(frozen=True)

@@ -22,6 +22,8 @@ if TYPE_CHECKING:
 class ObstacleGrid:
     """The spatial hash of a town's obstacles (see the module's docstring)."""
 
+    BLOCKS_KEPT = 4096  # the blocks of cells whose obstacles :meth:`in_box` keeps
+
     def __init__(self, obstacles: Sequence[Obstacle], half_size_m: float, cell_m: float = 2.0,
                  reach_m: float = 0.5) -> None:
         if not (cell_m > 0.0 and reach_m >= 0.0 and half_size_m > 0.0):
@@ -42,6 +44,7 @@ class ObstacleGrid:
                     members[j * self.n + i].append(k)
         self._members = [tuple(m) for m in members]
         self._cells = [tuple(self.obstacles[k] for k in m) for m in members]
+        self._blocks: dict[tuple[int, int, int, int], tuple[Obstacle, ...]] = {}
 
     def column(self, coordinate: float) -> int:
         """The cell index (0 to n - 1) of a coordinate, on either axis; clamped to the area."""
@@ -56,21 +59,29 @@ class ObstacleGrid:
         j = 0 if j < 0 else n - 1 if j >= n else j
         return self._cells[j * n + i]
 
-    def in_box(self, x0: float, y0: float, x1: float, y1: float) -> list[Obstacle]:
+    def in_box(self, x0: float, y0: float, x1: float, y1: float) -> tuple[Obstacle, ...]:
         """The obstacles of the cells the box overlaps, each once, in the town's order.
 
-        A superset of the obstacles within ``reach_m`` of the box.
+        A superset of the obstacles within ``reach_m`` of the box. Kept per
+        block of cells (a ball's step and a zombie's look at the player ask
+        for the same blocks step after step), at most ``BLOCKS_KEPT``.
         """
         i0, i1, j0, j1 = self.column(x0), self.column(x1), self.column(y0), self.column(y1)
         if i0 == i1 and j0 == j1:
-            return list(self._cells[j0 * self.n + i0])
-        found: set[int] = set()
-        for j in range(j0, j1 + 1):
-            for i in range(i0, i1 + 1):
-                found.update(self._members[j * self.n + i])
-        return [self.obstacles[k] for k in sorted(found)]
+            return self._cells[j0 * self.n + i0]
+        key = (i0, i1, j0, j1)
+        found = self._blocks.get(key)
+        if found is None:
+            members: set[int] = set()
+            for j in range(j0, j1 + 1):
+                for i in range(i0, i1 + 1):
+                    members.update(self._members[j * self.n + i])
+            if len(self._blocks) >= self.BLOCKS_KEPT:
+                self._blocks.clear()
+            found = self._blocks[key] = tuple(self.obstacles[k] for k in sorted(members))
+        return found
 
-    def along(self, ax: float, ay: float, bx: float, by: float) -> list[Obstacle]:
+    def along(self, ax: float, ay: float, bx: float, by: float) -> Sequence[Obstacle]:
         """The obstacles of the cells the segment ab crosses, each once, in the order the segment meets
         the cells (from a): a line-of-sight test can stop at the first that blocks. A segment that
         leaves the area gets the obstacles of every cell its box overlaps, in the town's order.

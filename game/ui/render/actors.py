@@ -161,6 +161,66 @@ def paint_calls(surface: pygame.Surface, calls: list) -> list[pygame.Rect]:
     return [rects[0].unionall(rects[1:])] if rects else []
 
 
+class RepeatedCalls:
+    """Paint calls that come again frame after frame (the avatar standing still), painted from a picture.
+
+    The calls are cut into runs at each blit (a glow adds to what lies
+    beneath it, so it is always painted as it comes); a run of draw calls
+    equal to the last frame's is painted once onto a scratch surface on a
+    colour key and kept as a picture of the rectangle round it, and while
+    the run stays the same one blit of the picture paints it. The draw calls
+    paint opaque colours (none the key), each pixel the last call's, so the
+    picture blitted gives the same pixels as the calls, in the same
+    rectangle.
+    """
+
+    KEY = (255, 0, 255)
+
+    def __init__(self) -> None:
+        self._last: dict[int, list] = {}  # each run's calls at the last frame
+        self._kept: dict[int, tuple[list, pygame.Surface, pygame.Rect]] = {}  # run: its calls, picture, place
+        self._scratch: pygame.Surface | None = None
+
+    def paint(self, surface: pygame.Surface, calls: list) -> list[pygame.Rect]:
+        """Paint the calls (see the class's docstring); returns the rectangles painted, as :func:`paint_calls`."""
+        rects: list[pygame.Rect] = []
+        run: list = []
+        k = 0
+        for call in calls + [(pygame.Surface.blit, None)]:  # the end closes the last run
+            if call[0] is not pygame.Surface.blit:
+                run.append(call)
+                continue
+            if run:
+                rects += self._paint_run(surface, k, run)
+                k, run = k + 1, []
+            if call[1] is not None:
+                rects += paint_calls(surface, [call])
+        return [rects[0].unionall(rects[1:])] if rects else []
+
+    def _paint_run(self, surface: pygame.Surface, k: int, run: list) -> list[pygame.Rect]:
+        kept = self._kept.get(k)
+        if kept is None or kept[0] != run:
+            if self._last.get(k) != run:  # new: paint it, remember it
+                self._last[k] = run
+                self._kept.pop(k, None)
+                return paint_calls(surface, run)
+            kept = self._kept[k] = (run, *self._picture(surface, run))  # the same twice: keep a picture
+        _, picture, where = kept
+        return [surface.blit(picture, where)] if where.width and where.height else []
+
+    def _picture(self, surface: pygame.Surface, run: list) -> tuple[pygame.Surface, pygame.Rect]:
+        """The run painted on the colour key, cut to the rectangle round it, and where it goes."""
+        scratch = self._scratch
+        if scratch is None or scratch.get_size() != surface.get_size():
+            scratch = self._scratch = pygame.Surface(surface.get_size(), 0, surface)
+        scratch.fill(self.KEY)
+        rects = paint_calls(scratch, run)
+        where = rects[0].clip(scratch.get_rect()) if rects else pygame.Rect(0, 0, 0, 0)
+        picture = scratch.subsurface(where).copy() if where.width and where.height else pygame.Surface((0, 0))
+        picture.set_colorkey(self.KEY)
+        return picture, where
+
+
 def _paint_zombie(surface: pygame.Surface, record: tuple) -> list[pygame.Rect]:
     """One zombie from its record (see :meth:`Actors._zombie_records`); returns the rectangle painted."""
     legs, arms, (hip, neck, head, eye_l, eye_r), limb, torso, head_r, colours, eyes = record
@@ -202,6 +262,18 @@ class ActorPoints:
     s_av: slice  # the avatar's ground point
 
 
+@dataclass
+class ActorPlan:
+    """The actors of a frame, planned: what to paint, and what the paint order needs (:meth:`Renderer._order
+    <game.ui.render.renderer.Renderer._order>`), one row an actor, the zombies first."""
+
+    items: list  # (paint function, payload)
+    depth: np.ndarray  # (T,) the depth that sorts them far to near
+    probes: np.ndarray  # (P,) the batch indices of the points that say what covers each (:mod:`.occlusion`)
+    owner: np.ndarray  # (P,) the actor of each probe
+    extents: np.ndarray  # (T, 5) the screen box round all an actor paints and its nearest depth; NaN if unknown
+
+
 class Actors:
     """Plans the zombies, the balls and the avatar of a frame; the avatar's legs stride as it moves."""
 
@@ -213,6 +285,7 @@ class Actors:
         self.sprites = sprites
         self.rng = rng  # the held ball's crackle
         self._stride = [0.0, 0.0, None]  # phase, amplitude, last position
+        self._avatar = RepeatedCalls()  # standing still, the avatar is one blit
 
     def update_stride(self, avatar, dt: float) -> None:
         """The legs stride while the avatar moves (the skeleton has none: the tracker does not see them)."""
@@ -265,17 +338,19 @@ class Actors:
         idx = [np.arange(sl.start, sl.stop) for sl in g.s_parts] + [np.arange(g.s_held.start, g.s_held.stop)]
         return np.concatenate(idx) if idx else np.zeros(0, dtype=int)
 
-    def plan(self, frame: Frame, g: ActorPoints, settings) -> list:
-        """Zombies, balls, the held ball and the avatar as (depth, paint, payload, probes, extent), in no
-        order; ``probes`` are the batch indices of the points that say what covers it (:mod:`.occlusion`),
-        ``extent`` (a zombie's) the screen box round all it paints and its nearest depth, or None."""
-        items: list[tuple[float, object, object, list, list | None]] = []
+    def plan(self, frame: Frame, g: ActorPoints, settings) -> ActorPlan:
+        """Zombies, balls, the held ball and the avatar in no order, as arrays (:class:`ActorPlan`): the
+        zombies' all at once, then a row for each of the others."""
+        items, depth, probes, owner = [], [np.zeros(0)], [np.zeros(0, dtype=int)], [np.zeros(0, dtype=int)]
+        extents = np.zeros((0, 5))
         if len(g.za):
             zdepth, records, ok, extents = self._zombie_records(frame, g.s_zj, len(g.za), g.za[:, 7] > 0)
             first = g.s_zj.start + ok * Z_JOINTS
-            probes = np.stack([first + Z_HEAD, first + Z_HIP, first + Z_FOOTL, first + Z_FOOTR], 1).tolist()
-            items += [(d, _paint_zombie, rec, pr, ext) for d, rec, pr, ext in zip(zdepth.tolist(), records, probes,
-                                                                                 extents.tolist())]
+            items += [(_paint_zombie, rec) for rec in records]
+            depth.append(zdepth)
+            probes.append(np.stack([first + Z_HEAD, first + Z_HIP, first + Z_FOOTL, first + Z_FOOTR], 1).ravel())
+            owner.append(np.repeat(np.arange(len(ok)), 4))
+        others = []  # (depth, paint, payload, probes)
         if g.balls:
             r0, r1 = setting(settings, ("ball_radius_m",), 0.22), setting(settings, ("ball_radius_per_charge_m",), 0.1)
             radii = [r0 + r1 * float(b.charge) for b in g.balls]
@@ -284,17 +359,24 @@ class Actors:
             for i, blits in enumerate(trails):
                 j = g.s_balls.start + i
                 if frame.visible[j]:
-                    items.append((float(frame.depth[j]), paint_blits,
-                                  blits + self._plan_ball(frame, j, radii[i], fades[i]), [j], None))
+                    others.append((float(frame.depth[j]), paint_blits,
+                                   blits + self._plan_ball(frame, j, radii[i], fades[i]), [j]))
         held, j = g.held, g.s_held.start
         if held is not None and held.visible and (held.state in ("loading", "spinning") or held.charge > 0) \
                 and frame.visible[j]:
-            items.append((float(frame.depth[j]), paint_calls, self._plan_held(frame, held, j), [j], None))
+            others.append((float(frame.depth[j]), paint_calls, self._plan_held(frame, held, j), [j]))
         if g.parts and frame.visible[g.s_parts[2].start + 1]:  # the chest
             chest = g.s_parts[2].start + 1
-            items.append((float(frame.depth[chest]), paint_calls, self._plan_avatar(frame, g.parts, g.s_parts),
-                          [chest, g.s_parts[-1].start], None))  # the chest and the head
-        return items
+            calls = self._plan_avatar(frame, g.parts, g.s_parts)
+            others.append((float(frame.depth[chest]), self._avatar.paint, calls,
+                           [chest, g.s_parts[-1].start]))  # the chest and the head
+        if others:
+            items += [(paint, payload) for _, paint, payload, _ in others]
+            depth.append(np.array([t[0] for t in others]))
+            probes.append(np.array([i for t in others for i in t[3]], dtype=int))
+            owner.append(len(extents) + np.repeat(np.arange(len(others)), [len(t[3]) for t in others]))
+        return ActorPlan(items, np.concatenate(depth), np.concatenate(probes), np.concatenate(owner),
+                         np.vstack([extents, np.full((len(others), 5), np.nan)]))
 
     def _zombie_records(self, frame: Frame, sl: slice, n: int, flying: np.ndarray
                         ) -> tuple[np.ndarray, list, np.ndarray, np.ndarray]:
@@ -307,25 +389,24 @@ class Actors:
         """
         cam = self.camera
         d = frame.depth[sl].reshape(n, Z_JOINTS)
-        xy = frame.xy[sl].reshape(n, Z_JOINTS, 2)
-        lo, hi = xy.min(axis=1), xy.max(axis=1)
+        pts = frame.ixy[sl].reshape(n, Z_JOINTS, 2)
+        lo, hi = pts.min(axis=1), pts.max(axis=1)  # whole pixels: the same tests against the whole margins
         ok = np.flatnonzero((d > cam.near + 0.3).all(axis=1) & (d[:, Z_HIP] > self.TOO_CLOSE)
                             & (hi[:, 0] > -20) & (lo[:, 0] < cam.width + 20)
                             & (hi[:, 1] > -20) & (lo[:, 1] < cam.height + 20))
         if not len(ok):
             return np.zeros(0), [], ok, np.zeros((0, 5))
-        d, flying = d[ok], flying[ok]
+        d, flying, pts, lo, hi = d[ok], flying[ok], pts[ok], lo[ok], hi[ok]
         hip = d[:, Z_HIP]
         ppm = cam.f / hip
         fog_level = (fog(hip) * (15.99 / 0.85)).astype(int) + 16 * flying
-        pts = frame.ixy[sl].reshape(n, Z_JOINTS, 2)[ok]
         limb, torso, head = (np.maximum(least, ppm * k).astype(int) for least, k in ((1, 0.11), (1, 0.22), (2, 0.13)))
         records = list(zip(pts[:, Z_LEGS].tolist(), pts[:, Z_ARMS].tolist(),
                            pts[:, [Z_HIP, Z_NECK, Z_HEAD, Z_EYEL, Z_EYER]].tolist(), limb.tolist(), torso.tolist(),
                            head.tolist(), [_ZOMBIE_COLOURS[i] for i in fog_level.tolist()],
                            (d[:, Z_EYEL] < d[:, Z_HEAD]).tolist()))  # eyes nearer than the head: facing us
         pad = (np.maximum(torso, head) + 5)[:, None]  # half the widest stroke (an outline), and a margin
-        extents = np.column_stack([pts.min(axis=1) - pad, pts.max(axis=1) + pad, d.min(axis=1) - self.THICK_M])
+        extents = np.column_stack([lo - pad, hi + pad, d.min(axis=1) - self.THICK_M])
         return hip, records, ok, extents
 
     def _plan_trails(self, frame: Frame, sl: slice, lengths: list, radii: list, fades: list) -> list:
@@ -384,19 +465,20 @@ class Actors:
         """Capsules, parts far to near: a dark outline pass, then the colour pass, joints as circles."""
         cam = self.camera
         line, circle = pygame.draw.line, pygame.draw.circle
-        all_depth = frame.depth[slices[0].start:slices[-1].stop].tolist()
-        base = slices[0].start
+        base, stop = slices[0].start, slices[-1].stop
+        all_depth = frame.depth[base:stop].tolist()  # the parts' points, one after another: as lists at once
+        all_pts, all_seen = frame.ixy[base:stop].tolist(), frame.visible[base:stop].tolist()
         depth = [sum(all_depth[s.start - base:s.stop - base]) / (s.stop - s.start) for s in slices]
         calls: list = []
         for k in depth_order(np.array(depth)).tolist():
             name, _, width_m, colour = parts[k]
-            s = slices[k]
-            if not frame.visible[s].all():
+            lo, hi = slices[k].start - base, slices[k].stop - base
+            if not all(all_seen[lo:hi]):
                 continue
-            pts = frame.ixy[s].tolist()
+            pts = all_pts[lo:hi]
             wpx = max(2, int(cam.f * width_m / depth[k]))
             if name == "head":  # seen from behind (the usual view): hair
-                back = frame.depth[s.start + 1] > frame.depth[s.start]
+                back = all_depth[lo + 1] > all_depth[lo]
                 calls += [(circle, (OUTLINE, pts[0], wpx // 2 + 2)),
                           (circle, (AVATAR_HAIR if back else colour, pts[0], wpx // 2))]
                 continue

@@ -11,10 +11,13 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pygame
 
 from .palette import (MAP_BALL, MAP_BORDER, MAP_LOTS, MAP_OBSTACLE, MAP_OPEN, MAP_PLAYER, MAP_ZOMBIE, OUTLINE,
                       Colour)
+
+DOT_KEY = (255, 0, 255)  # no dot is drawn in this colour
 
 
 def map_rect(size: tuple[int, int]) -> pygame.Rect:
@@ -25,10 +28,17 @@ def map_rect(size: tuple[int, int]) -> pygame.Rect:
     return pygame.Rect(w - 16 - side, 16 + max(14, h // 34), side, side)
 
 
-def to_map(rect: pygame.Rect, half_size_m: float, x: float, y: float) -> tuple[int, int]:
-    """The minimap pixel of the world point (x, y): x east to the right, y north up."""
+def map_xy(rect: pygame.Rect, half_size_m: float, x, y) -> tuple:
+    """Where the world point (x, y) falls on the minimap, in fractional pixels (numbers or arrays alike): x
+    east to the right, y north up."""
     scale = rect.width / (2.0 * half_size_m)
-    return int(rect.left + (x + half_size_m) * scale), int(rect.top + (half_size_m - y) * scale)
+    return rect.left + (x + half_size_m) * scale, rect.top + (half_size_m - y) * scale
+
+
+def to_map(rect: pygame.Rect, half_size_m: float, x: float, y: float) -> tuple[int, int]:
+    """The minimap pixel of the world point (x, y) (:func:`map_xy`, whole)."""
+    mx, my = map_xy(rect, half_size_m, x, y)
+    return int(mx), int(my)
 
 
 class Minimap:
@@ -37,6 +47,7 @@ class Minimap:
     def __init__(self) -> None:
         self._key: tuple | None = None
         self._picture: pygame.Surface | None = None
+        self._dot_cache: dict[tuple, pygame.Surface] = {}
 
     def draw(self, surface: pygame.Surface, arena) -> None:
         """The town, its zombies and balls and the player, in the corner; nothing when there is no town."""
@@ -46,18 +57,38 @@ class Minimap:
         rect = map_rect(surface.get_size())
         surface.blit(self._background(town, rect.width), rect)
         h = town.half_size_m
-        circle = pygame.draw.circle
         clip = surface.get_clip()
         surface.set_clip(rect)
         dot = max(2, rect.width // 64)
-        for z in arena.zombies:
-            if z.state != "gone":
-                circle(surface, MAP_ZOMBIE, to_map(rect, h, z.x, z.y), dot)
-        for b in getattr(arena, "balls", ()):
-            circle(surface, MAP_BALL, to_map(rect, h, b.position[0], b.position[1]), max(1, dot - 1))
+        self._dots(surface, rect, h, [(z.x, z.y) for z in arena.zombies if z.state != "gone"], MAP_ZOMBIE, dot)
+        self._dots(surface, rect, h, [b.position[:2] for b in getattr(arena, "balls", ())], MAP_BALL, max(1, dot - 1))
         p = arena.player
         self._arrow(surface, to_map(rect, h, p.x, p.y), p.yaw, max(5, rect.width // 22))
         surface.set_clip(clip)
+
+    def _dots(self, surface: pygame.Surface, rect: pygame.Rect, h: float, xy: list, colour: Colour,
+              radius: int) -> None:
+        """A dot of ``radius`` pixels at each world point of ``xy``: one blit of a cached dot each, the same
+        pixels as a circle drawn there (:func:`to_map`'s pixels, worked out all at once)."""
+        if not xy:
+            return
+        points = np.asarray(xy, dtype=float)
+        mx, my = map_xy(rect, h, points[:, 0], points[:, 1])
+        x, y = mx.astype(int) - radius, my.astype(int) - radius  # truncated as int() truncates
+        dot = self._dot(colour, radius)
+        surface.blits([(dot, p) for p in zip(x.tolist(), y.tolist())], doreturn=False)
+
+    def _dot(self, colour: Colour, radius: int) -> pygame.Surface:
+        """A circle of ``radius`` pixels round the middle of a 2 ``radius`` square, on a colour key."""
+        key = (tuple(colour), radius)
+        dot = self._dot_cache.get(key)
+        if dot is None:
+            dot = pygame.Surface((2 * radius, 2 * radius))
+            dot.fill(DOT_KEY)
+            dot.set_colorkey(DOT_KEY)
+            pygame.draw.circle(dot, colour, (radius, radius), radius)
+            self._dot_cache[key] = dot
+        return dot
 
     @staticmethod
     def _arrow(surface: pygame.Surface, centre: tuple[int, int], yaw: float, size: int) -> None:

@@ -19,7 +19,7 @@ from typing import Iterable
 import numpy as np
 import pygame
 
-from .actors import Actors, paint_blits, paint_calls
+from .actors import ActorPlan, Actors, paint_blits, paint_calls
 from .board import BoardPictures
 from .camera import Batch, Camera, CameraRig, Frame, depth_order
 from .effects import Effects, Vignette
@@ -152,7 +152,8 @@ class Renderer(Hud, Plots, Screens, BoardPictures):
         plan.still = (self.camera.pose(), id(model)) if town_plan.opaque else None
         return plan
 
-    def _order(self, boxes: TownPlan, things: list, light: tuple, points: np.ndarray, frame: Frame) -> list[list]:
+    def _order(self, boxes: TownPlan, actors: ActorPlan, light: tuple, points: np.ndarray, frame: Frame
+               ) -> list[list]:
         """Boxes, actors and light in one paint order (painter's algorithm, :mod:`.town`'s docstring): what
         goes before each box (its bucket), and after the last.
 
@@ -168,24 +169,22 @@ class Renderer(Hud, Plots, Screens, BoardPictures):
         circles, glows, at = light
         lamps = boxes.lights
         glows = glows + lamps.glows
-        probes = [t[3] for t in things]
-        idx = np.concatenate([np.array([i for p in probes for i in p], dtype=int), np.asarray(at, dtype=int)])
+        idx = np.concatenate([actors.probes, np.asarray(at, dtype=int)])
         slots = self.town.cover_slots(boxes, self.camera.eye, np.concatenate([points[idx], lamps.points]),
                                       np.concatenate([frame.xy[idx], lamps.xy]),
                                       np.concatenate([frame.depth[idx], lamps.depth]))
         buckets: list[list] = [[] for _ in range(n + 1)]
-        if things:
-            lengths = [len(p) for p in probes]
-            first = np.full(len(things), n)
-            np.minimum.at(first, np.repeat(np.arange(len(things)), lengths), slots[:sum(lengths)])
-            far_to_near = depth_order(np.array([t[0] for t in things]))
+        if actors.items:
+            first = np.full(len(actors.items), n)
+            np.minimum.at(first, actors.owner, slots[:len(actors.probes)])
+            far_to_near = depth_order(actors.depth)
             mine = np.minimum.accumulate(first[far_to_near][::-1])[::-1]
-            slot_of = np.empty(len(things), dtype=int)
+            slot_of = np.empty(len(actors.items), dtype=int)
             slot_of[far_to_near] = mine
-            out = self._walled_in(boxes, things, slot_of)
+            out = self._walled_in(boxes, actors.extents, slot_of)
             for k, slot in zip(far_to_near.tolist(), mine.tolist()):
                 if not out[k]:
-                    buckets[slot].append(things[k][1:3])
+                    buckets[slot].append(actors.items[k])
         lit = slots[len(idx) - len(at):].tolist()  # the effects' points (rings, then glows), then the lamps'
         for paint, light_items, at_slots in ((paint_calls, circles, lit), (paint_blits, glows, lit[len(circles):])):
             by_slot: dict[int, list] = {}
@@ -196,19 +195,19 @@ class Renderer(Hud, Plots, Screens, BoardPictures):
         return buckets
 
     @staticmethod
-    def _walled_in(boxes: TownPlan, things: list, slot_of: np.ndarray) -> list[bool]:
-        """Which actors need no painting: those with an extent (screen box and nearest depth) inside a wall's
-        rectangle (2 px in from it: the fill's rounding), wholly behind the wall, whose box is painted after
-        them (its slot not before theirs): the wall paints over every pixel of theirs."""
-        out = [False] * len(things)
+    def _walled_in(boxes: TownPlan, extents: np.ndarray, slot_of: np.ndarray) -> list[bool]:
+        """Which actors need no painting: those with an extent (screen box and nearest depth, NaN if unknown)
+        inside a wall's rectangle (2 px in from it: the fill's rounding), wholly behind the wall, whose box is
+        painted after them (its slot not before theirs): the wall paints over every pixel of theirs."""
+        out = [False] * len(extents)
         rects, far, owner = boxes.walls
-        with_extent = [k for k, t in enumerate(things) if t[4] is not None]
-        if not len(rects) or not with_extent:
+        with_extent = np.flatnonzero(~np.isnan(extents[:, 4]))
+        if not len(rects) or not len(with_extent):
             return out
-        extent = np.array([things[k][4] for k in with_extent], dtype=float)
+        extent = extents[with_extent]
         behind = behind_walls(extent[:, :4], extent[:, 4], rects + (2.0, 2.0, -2.0, -2.0), far)
         hidden = (behind & (owner[None, :] >= slot_of[with_extent][:, None])).any(axis=1)
-        for k, h in zip(with_extent, hidden.tolist()):
+        for k, h in zip(with_extent.tolist(), hidden.tolist()):
             out[k] = h
         return out
 

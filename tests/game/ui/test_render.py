@@ -363,3 +363,36 @@ def test_title_glow_leaves_no_box(screen):
     r.draw_title(screen, "ENERGYBALL", "sub")
     rect = r.text.render("ENERGYBALL", 720 // 7).get_rect(midtop=(640, 720 // 6))
     assert tuple(screen.get_at((rect.left + 2, rect.top + 1)))[:3] == (20, 20, 40)  # a corner between letters
+
+
+def test_calls_painted_again_unchanged_come_from_one_picture_with_the_same_pixels(screen):
+    from game.ui.render.actors import RepeatedCalls, paint_calls
+
+    drawn = []
+
+    def line(surface, *args):  # pygame.draw.line, counted
+        drawn.append(args)
+        return pygame.draw.line(surface, *args)
+
+    glow = pygame.Surface((30, 30))
+    glow.fill((60, 40, 20))
+    calls = [(line, ((8, 10, 22), (300, 200), (340, 420), 14)), (pygame.draw.circle, ((70, 130, 240), (320, 200), 9)),
+             (pygame.Surface.blit, (glow, (310, 300), None, pygame.BLEND_RGB_ADD)),  # adds: painted as it comes
+             (line, ((255, 160, 50), (330, 300), (-5, 330), 6))]  # off the screen's left edge
+    background = pygame.Surface(screen.get_size())
+    background.fill((90, 100, 110))
+    pygame.draw.line(background, (200, 30, 30), (0, 310), (1279, 330), 9)
+
+    def frame(paint) -> tuple[bytes, list]:
+        screen.blit(background, (0, 0))
+        rects = paint(screen, calls)
+        return pygame.image.tobytes(screen, "RGB"), rects
+
+    direct = frame(paint_calls)
+    repeated = RepeatedCalls()
+    drawn.clear()
+    frames = [frame(repeated.paint) for _ in range(3)]
+    assert all(f == direct for f in frames)
+    assert len(drawn) == 4  # two runs drawn at the first frame and again for their pictures, then blitted
+    calls[3] = (line, ((255, 160, 50), (330, 300), (20, 360), 6))  # the second run moves: drawn as it comes
+    assert frame(repeated.paint) == frame(paint_calls)

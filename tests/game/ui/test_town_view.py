@@ -230,6 +230,24 @@ def test_the_minimap_puts_the_player_and_a_zombie_where_they_are(screen):
     assert sum(building[:3]) < 40 and sum(street[:3]) > sum(building[:3]) + 100  # dark shapes on lighter streets
 
 
+def test_the_minimaps_dots_are_the_circles_drawn_at_each_zombie_even_at_its_edge(screen):
+    from game.ui.render.minimap import Minimap, map_rect, to_map
+    from game.ui.render.palette import MAP_ZOMBIE
+
+    rng = np.random.default_rng(5)
+    xy = [tuple(p) for p in rng.uniform(-24.5, 24.5, (40, 2))] + [(-24.0, 0.3), (23.9, 23.9), (0.01, -24.0)]
+    rect = map_rect(screen.get_size())
+    by_hand = pygame.Surface(screen.get_size())
+    by_hand.set_clip(rect)
+    for x, y in xy:
+        pygame.draw.circle(by_hand, MAP_ZOMBIE, to_map(rect, 24.0, x, y), 3)
+    screen.fill((0, 0, 0))
+    screen.set_clip(rect)
+    Minimap()._dots(screen, rect, 24.0, xy, MAP_ZOMBIE, 3)
+    screen.set_clip(None)
+    assert pygame.image.tobytes(screen, "RGB") == pygame.image.tobytes(by_hand, "RGB")
+
+
 def test_no_minimap_without_a_town(screen):
     arena, _ = town_arena([])
     del arena.town

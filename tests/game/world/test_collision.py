@@ -176,3 +176,22 @@ def test_segment_box_in_two_dimensions_with_infinite_heights():
     assert segment_box(-1.0, 0.5, 0.0, 4.0, 0.0, 0.0, 0.0, 0.0, -inf, 1.0, 1.0, inf) == 0.25
     assert segment_box(-1.0, 1.0, 0.0, 4.0, 0.0, 0.0, 0.0, 0.0, -inf, 1.0, 1.0, inf) == inf  # along an edge
     assert segment_box(-1.0, 0.5, 0.0, 0.9, 0.0, 0.0, 0.0, 0.0, -inf, 1.0, 1.0, inf) == inf  # stops short
+
+
+def test_the_spatial_hash_in_a_box_holds_every_obstacle_near_it_once_in_the_towns_order_kept_or_not(monkeypatch):
+    town = make_town(8, "grid")
+    grid = town.grid
+    monkeypatch.setattr(type(grid), "BLOCKS_KEPT", 16)  # the kept blocks are dropped again and again
+    rank = {id(o): k for k, o in enumerate(town.obstacles)}
+    rng = np.random.default_rng(3)
+    for _ in range(300):
+        x0, y0 = rng.uniform(-town.half_size_m - 2, town.half_size_m, 2)
+        x1, y1 = x0 + rng.uniform(0.0, 8.0), y0 + rng.uniform(0.0, 8.0)
+        found = grid.in_box(x0, y0, x1, y1)
+        order = [rank[id(o)] for o in found]
+        assert order == sorted(set(order))  # each once, in the town's order
+        r = grid.reach_m
+        near = {rank[id(o)] for o in town.obstacles
+                if o.x0 - r < x1 and o.x1 + r > x0 and o.y0 - r < y1 and o.y1 + r > y0}
+        assert near <= set(order)
+        assert grid.in_box(x0, y0, x1, y1) == found  # asked again: the same
