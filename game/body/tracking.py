@@ -5,7 +5,9 @@ calibration / flex -> fusion -> ArmPose). Raw samples go through the board's
 calibration (gyro bias, accelerometer), the ``default`` filter and the flex
 tracker; fused samples (the board's own estimate, the paper's mode) pass
 straight through. The "hold still" step of the wearing calibration gives the
-filter its gyro bias here.
+filter its gyro bias here, and the first sample after a start tells it the
+board's age (device time starts at power-up), so a board still warming up has
+its bias's drift learned from the start.
 """
 
 from __future__ import annotations
@@ -53,6 +55,8 @@ class Tracking:
         if isinstance(sample, P.FusedSample):
             return ArmPose(sample.q, sample.flex_deg, sample.t)
         t = sample.t
+        if self._last_t is None and isinstance(self.filter, DefaultFilter):
+            self.filter.power_on(t)  # device time is the board's age (its clock starts at power-up)
         dt = self._step(t)
         acc, gyr, mag = self.board.apply(sample)
         q = self.filter.update(gyr, acc, mag if self.use_magnetometer else None, dt)

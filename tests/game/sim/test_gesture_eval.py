@@ -149,20 +149,22 @@ def test_the_simulated_maker_recovers_the_boards_own_errors(name):
 
 def test_without_the_magnetometer_the_drift_state_holds_the_aim_better(monkeypatch):
     """6D fusion has no heading reference: the gyro's bias about the vertical, followed only as
-    well as gravity sees it while the board warms, turns the aim; 9D holds it (same player, same
-    seed). The bias's drift state (a type-2 loop) follows the warm-up's ramp, so the late aim
-    without a magnetometer is better than the filter's without it (the filter before)."""
+    well as gravity sees it while the board warms, turns the aim for good. The bias's drift state
+    (a type-2 loop), unknown from the board's power-up on, follows the warm-up's ramp from its
+    steepest start, so without a magnetometer the late aim meets the target as 9D's does and is
+    far better than the filter's without the drift state (same player, same seed: 11.1 deg
+    without it, 4.3 with the drift known to be zero at power-up, 1.0 now)."""
     import game.sim.gesture_eval as ge
     from game.body.tracking import Tracking
     from tracker.fusion.default import DefaultFilter, DefaultParams
 
     nine = run_trial(PlayerProfile(), 0, gestures=20)
     six = run_trial(PlayerProfile(), 0, gestures=20, magnetometer=False)
-    before_filter = DefaultFilter(DefaultParams(drift_t=1e9))  # no drift learned: the filter before
+    before_filter = DefaultFilter(DefaultParams(drift_t=1e9, drift_max=0.0))  # no drift: the filter before
     monkeypatch.setattr(ge, "Tracking", functools.partial(Tracking, filter=before_filter))
     before = run_trial(PlayerProfile(), 0, gestures=20, magnetometer=False)
     assert (nine.matched, six.matched) == (nine.true_launches, six.true_launches)
     late = {name: float(np.median(r.late_aim_errors_deg)) for name, r in (("9D", nine), ("6D", six),
                                                                           ("6D before", before))}
-    assert late["9D"] <= 3.0 and late["9D"] < late["6D"], late
-    assert late["6D"] < 0.9 * late["6D before"], late
+    assert late["9D"] <= 3.0 and late["6D"] <= 3.0, late
+    assert late["6D"] < 0.5 * late["6D before"], late
