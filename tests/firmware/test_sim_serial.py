@@ -36,9 +36,11 @@ def legacy_elf(elf: Path) -> Path:
     return LEGACY_ELF
 
 
-def read_frames(port: serial.Serial, seconds: float, start: float) -> list[tuple[float, P.Packet]]:
-    """(seconds since ``start``, packet) for every frame read from ``port`` for ``seconds``."""
-    decoder, got = P.FrameDecoder(), []
+def read_frames(port: serial.Serial, seconds: float, start: float,
+                decoder: P.FrameDecoder | None = None) -> list[tuple[float, P.Packet]]:
+    """(seconds since ``start``, packet) for every frame read from ``port`` for ``seconds``;
+    give the ``decoder`` of earlier calls so a frame split between two calls is not lost."""
+    decoder, got = decoder or P.FrameDecoder(), []
     end = time.monotonic() + seconds
     while time.monotonic() < end:
         got += [(time.monotonic() - start, p) for p in decoder.feed(port.read(256))]
@@ -57,8 +59,9 @@ def test_opening_the_port_resets_the_board_and_the_bootloader_swallows_the_hosts
         port.reset_input_buffer()
         port.write(IDENTIFY)  # a board in reset or in Optiboot never hears it
         got: list[tuple[float, P.Packet]] = []
+        decoder = P.FrameDecoder()
         while not any(isinstance(p, P.RawSample) for _, p in got) and time.monotonic() < opened + 6:
-            got += read_frames(port, 0.1, opened)
+            got += read_frames(port, 0.1, opened, decoder)
         port.close()
         report = board.report()
     line = report["line"]
