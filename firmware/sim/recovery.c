@@ -14,10 +14,8 @@ void recovery_init(recovery_t *r)
 
 void recovery_event(recovery_t *r, const char *kind, double now, int counts_lost)
 {
-	if (r->n == RECOVERY_MAX_EVENTS) {
-		r->dropped++;
+	if (r->n == RECOVERY_MAX_EVENTS)
 		return;
-	}
 	recovery_event_t *e = &r->ev[r->n++];
 	e->kind = kind;
 	e->at_s = now;

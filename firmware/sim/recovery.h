@@ -19,7 +19,7 @@
 #include <stdint.h>
 #include <stdio.h>
 
-#define RECOVERY_MAX_EVENTS 64
+#define RECOVERY_MAX_EVENTS 64 /* events past these are not followed (a run has a handful) */
 
 typedef struct recovery_event {
 	const char *kind;      /* "open", "reset", "glitch", "hang" */
@@ -33,7 +33,6 @@ typedef struct recovery_event {
 typedef struct recovery {
 	recovery_event_t ev[RECOVERY_MAX_EVENTS];
 	int n;
-	uint64_t dropped;      /* events past RECOVERY_MAX_EVENTS, not followed */
 	double last_read_s;    /* the newest sample frame's read time; < 0 none yet */
 	double period_s;       /* between the two newest samples of one run of the sketch */
 	int restarted;         /* no sample yet since the sketch restarted */
