@@ -247,16 +247,20 @@ class StartupParams:
     35 deg/s means a steady turn or a faulty gyroscope. ``max_tilt`` (rad): a larger net tilt of the arm over the hold is a
     move: a sway of up to 4 deg peak (the issue's 0.1-1 Hz postural sway) swings the
     arm at most 8 deg peak to peak, so 8.5 deg. ``max_rate`` (rad/s): the low-passed
-    rate that the tilt does not explain must stay under it (VQF's rest threshold for
-    the low-passed gyroscope, 2 deg/s). ``smoothing`` (s): length of the zero-phase
-    Hann low-pass; 2 / TREMOR_MIN_HZ puts its first zero at the slowest tremor.
+    rate that the tilt does not explain must stay under it. Measured with this low-pass
+    on the real arm recording (../shared/data/real-arm, both upper arms, every 2 s
+    window on a 0.1 s grid): still windows leave at most 1.09 deg/s, the slowest real
+    movements at least 1.23 deg/s; 1.15 deg/s lies between (``tests/tracker/
+    test_stillness_real.py`` keeps both sides). ``smoothing`` (s): length of the
+    zero-phase Blackman low-pass (:func:`_blackman`); 3 / TREMOR_MIN_HZ puts its first
+    zero at the slowest tremor, and its sidelobes (-58 dB) keep the tremor band out.
     """
 
     duration: float = 2.0
     max_bias: float = 35.0 * DEG
     max_tilt: float = 8.5 * DEG
-    max_rate: float = 2.0 * DEG
-    smoothing: float = 2.0 / TREMOR_MIN_HZ
+    max_rate: float = 1.15 * DEG
+    smoothing: float = 3.0 / TREMOR_MIN_HZ
 
 
 @dataclass(frozen=True, eq=False)
@@ -295,15 +299,19 @@ class HoldFit:
     up: Array
 
 
-def _hann(length: float, dt: float) -> tuple[Array, Array]:
-    """A Hann window of ``length`` seconds as a low-pass kernel (sum 1) and its time derivative
-    (per second), sampled every ``dt``. Its spectrum is zero at multiples of 1 / length
-    from 2 / length on and its sidelobes fall as f^-3 (F. J. Harris, "On the use of windows
-    for harmonic analysis with the discrete Fourier transform", Proc. IEEE 66 (1978) 51-83,
-    sec. V.C), so a length of 2 / TREMOR_MIN_HZ all but removes the tremor band."""
+def _blackman(length: float, dt: float) -> tuple[Array, Array]:
+    """A Blackman window of ``length`` seconds as a low-pass kernel (sum 1) and its time
+    derivative (per second), sampled every ``dt``: w = 0.42 - 0.5 cos(2 pi x) + 0.08 cos(4 pi x)
+    on x in (0, 1). Its spectrum is zero at 3 / length, its highest sidelobe is -58 dB and the
+    sidelobes fall as f^-3 (F. J. Harris, "On the use of windows for harmonic analysis with the
+    discrete Fourier transform", Proc. IEEE 66 (1978) 51-83, sec. V.E and table 1). A length
+    of 3 / TREMOR_MIN_HZ keeps the tremor band out: a Hann window with the same first zero
+    (2 / TREMOR_MIN_HZ long) lets its -31 dB sidelobes through, so a 2 deg tremor rocking the
+    board on soft tissue near 5 Hz left up to 5 deg/s of apparent turn, as much as a real move."""
     m = max(3, round(length / dt))
-    x = math.pi * (np.arange(m) + 0.5) / m
-    k, dk = np.sin(x) ** 2, 2.0 * np.sin(x) * np.cos(x) * math.pi / (m * dt)
+    x = 2.0 * math.pi * (np.arange(m) + 0.5) / m
+    k = 0.42 - 0.5 * np.cos(x) + 0.08 * np.cos(2.0 * x)
+    dk = (0.5 * np.sin(x) - 0.16 * np.sin(2.0 * x)) * (2.0 * math.pi / (m * dt))
     return k / k.sum(), dk / k.sum()
 
 
@@ -343,16 +351,31 @@ def _basis(up: Array) -> Array:
     return np.stack([e1, np.cross(up, e1), up])
 
 
-def _lstsq(x: Array, y: Array, scale: float) -> tuple[Array, Array, Array]:
+def _lstsq(x: Array, y: Array, noise: Array) -> tuple[Array, Array, Array]:
     """Least squares y ~ x s: the solution, its standard errors and the residual.
 
-    The residual is a low-passed one, its samples correlated over the kernel, so the
-    white-noise standard errors are inflated by ``scale`` = 1 / sum(kernel^2), the
-    kernel's equivalent noise length in samples (Harris 1978, sec. IV.B)."""
-    s: Array = np.linalg.lstsq(x, y, rcond=None)[0].astype(np.float64)
+    The rows are low-passed, so their noise is correlated: ``noise`` maps the raw
+    samples' white noise (one unknown variance sigma^2) to the rows, y = x s + noise w.
+    With G = (x^T x)^-1 x^T and M = I - x G, E[e^T e] = sigma^2 tr(M A A^T M^T) and
+    Cov(s) = sigma^2 G A A^T G^T: least squares under correlated errors (the "sandwich",
+    e.g. Greene, Econometric Analysis, 7th ed., sec. 9.2), which counts the few degrees
+    of freedom a low-pass leaves instead of taking every low-passed row for one."""
+    g = np.linalg.pinv(x)
+    s: Array = (g @ y).astype(np.float64)
     e = y - x @ s
-    var = float(e @ e) / max(1, len(y) - x.shape[1]) * scale
-    return s, np.sqrt(var * np.abs(np.diag(np.linalg.pinv(x.T @ x)))), e
+    left = noise - x @ (g @ noise)  # M A
+    sigma2 = float(e @ e) / max(float(np.sum(left * left)), 1e-300)
+    return s, np.sqrt(sigma2 * np.sum((g @ noise) ** 2, axis=1)), e
+
+
+def _convolution(kernel: Array, samples: int) -> Array:
+    """The matrix K with K w = :func:`_smooth` (w) for ``samples`` samples: (samples - m + 1, samples)."""
+    m = len(kernel)
+    rows = samples - m + 1
+    out = np.zeros((rows, samples))
+    for i in range(rows):
+        out[i, i:i + m] = kernel[::-1]
+    return out
 
 
 def _lever_columns(gyr: Array, dw: Array, kernel: Array, basis: Array) -> Array:
@@ -388,7 +411,7 @@ def fit_hold(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
 
     Both sides are low-passed alike first (VQF judges rest on low-passed signals,
     Laidig & Seel 2023, sec. 3.3; here the whole hold is at hand, so a zero-phase
-    Hann window, :func:`_hann`, without lag or start-up transient). The fit is
+    Blackman window, :func:`_blackman`, without lag or start-up transient). The fit is
     linear least squares, done twice, integrating again with the bias found. The
     tilt is the angle between the low-passed, bias-corrected up direction at the
     first and last low-passed samples; the unexplained rate is the time derivative
@@ -398,10 +421,14 @@ def fit_hold(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
     tt = np.asarray(t, dtype=np.float64)
     g, a = _rows(gyr, "gyr"), _rows(acc, "acc")
     dt = float(np.median(np.diff(tt)))
-    kernel, dkernel = _hann(p.smoothing, dt)
+    kernel, dkernel = _blackman(p.smoothing, dt)
     basis = _basis(a.mean(axis=0) / float(np.linalg.norm(a.mean(axis=0))))
     tau = _smooth(tt - tt[0], kernel)
-    n, scale = len(tau), 1.0 / float(kernel @ kernel)
+    n = len(tau)
+    smooth = _convolution(kernel, len(tt))  # the low-pass as a matrix: what noise reaches the rows
+    noise_h = np.zeros((2 * n + 2, 2 * len(tt)))  # the accelerometer's white noise, per axis
+    noise_h[:n, :len(tt)], noise_h[n:2 * n, len(tt):] = smooth, smooth
+    noise_v = dt * np.cumsum(smooth[:, ::-1], axis=1)[:, ::-1]  # the gyroscope's, integrated to a turn
     lever = _lever_columns(g, _smooth(g, dkernel), kernel, basis)
     # unknowns: db_e1, db_e2, const_e1, const_e2, the lever arm r_e1, r_e2, r_up; two prior rows
     x_h = np.zeros((2 * n + 2, 7))
@@ -417,9 +444,9 @@ def fit_hold(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
         start = np.sum(quat.rotate(q[centre:centre + n], a_lp), axis=0)  # taken back to the start
         v = _smooth(quat.rotate(quat.conjugate(q), start / np.linalg.norm(start)), kernel)
         d = (a_lp / GRAVITY - v) @ basis[:2].T
-        s_h, se_h, e_h = _lstsq(x_h, np.concatenate([d[:, 0], d[:, 1], [0.0, 0.0]]), scale)
+        s_h, se_h, e_h = _lstsq(x_h, np.concatenate([d[:, 0], d[:, 1], [0.0, 0.0]]), noise_h)
         turn = _smooth(quat.to_rotvec(q), kernel) @ basis[2]
-        s_v, _, e_v = _lstsq(x_v, turn, scale)
+        s_v, se_v, e_v = _lstsq(x_v, turn, noise_v)
         step = s_h[0] * basis[0] + s_h[1] * basis[1] + s_v[0] * basis[2]
         bias = bias + step
     ends = v[[0, -1]] + np.outer(tau[[0, -1]], np.cross(step, basis[2]))
@@ -428,8 +455,7 @@ def fit_hold(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
     rate = np.gradient(residual, tau, axis=0)
     norms = np.linalg.norm(rate, axis=1)
     worst = int(np.argmax(norms))
-    se_v = math.sqrt(float(np.mean(rate[:, 2] ** 2)) / (n * float(kernel @ kernel)))
-    std_error = np.sqrt(np.array([se_h[0], se_h[1], se_v]) ** 2 @ basis ** 2)
+    std_error = np.sqrt(np.array([se_h[0], se_h[1], se_v[0]]) ** 2 @ basis ** 2)
     return HoldFit(bias, std_error, tilt, float(norms[worst]),
                    bool(abs(rate[worst, 2]) > math.hypot(rate[worst, 0], rate[worst, 1])),
                    float(-s_h[6]), basis[2].copy())
