@@ -64,8 +64,8 @@ def net_move_deg(poses: Sequence[ArmPose]) -> float:
     """How far the arm turned (deg) from the start of a held pose to its end, tremor and sway aside.
 
     Tremor and sway oscillate about the pose, a move persists: the low-passed
-    orientations at the two ends are compared (Hann windows of 2 / TREMOR_MIN_HZ, the
-    start-up hold's, or half the pose when it is shorter), which tremor at
+    orientations at the two ends are compared (Hann windows of 2 / TREMOR_MIN_HZ, whose first
+    zero is the slowest tremor, or half the pose when it is shorter), which tremor at
     TREMOR_MIN_HZ and above hardly reaches. Sway swings at most twice its peak.
     """
     q = np.asarray([p.q_upper for p in poses], dtype=float)
