@@ -48,7 +48,7 @@ from collections import deque
 from dataclasses import Field, dataclass, field, fields, replace
 from datetime import datetime
 from pathlib import Path
-from typing import NamedTuple, Sequence
+from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
 from mypy_extensions import mypyc_attr
@@ -351,31 +351,50 @@ def _basis(up: Array) -> Array:
     return np.stack([e1, np.cross(up, e1), up])
 
 
-def _lstsq(x: Array, y: Array, noise: Array) -> tuple[Array, Array, Array]:
+def _lstsq(x: Array, y: Array, noise_t: Callable[[Array], Array], noise_norm2: float
+           ) -> tuple[Array, Array, Array]:
     """Least squares y ~ x s: the solution, its standard errors and the residual.
 
-    The rows are low-passed, so their noise is correlated: ``noise`` maps the raw
-    samples' white noise (one unknown variance sigma^2) to the rows, y = x s + noise w.
-    With G = (x^T x)^-1 x^T and M = I - x G, E[e^T e] = sigma^2 tr(M A A^T M^T) and
-    Cov(s) = sigma^2 G A A^T G^T: least squares under correlated errors (the "sandwich",
-    e.g. Greene, Econometric Analysis, 7th ed., sec. 9.2), which counts the few degrees
-    of freedom a low-pass leaves instead of taking every low-passed row for one."""
+    The rows are low-passed, so their noise is correlated: y = x s + A w, with w the
+    raw samples' white noise (one unknown variance sigma^2) and A what reaches the
+    rows, given by its transpose ``noise_t`` (rows -> samples) and ``noise_norm2`` =
+    ||A||_F^2 (A itself, rows x samples, is never formed). With G = (x^T x)^-1 x^T and
+    H = x G, E[e^T e] = sigma^2 tr(A^T (I - H) A) = sigma^2 (||A||_F^2 - sum_j (A^T x_j) .
+    (A^T g_j)), and Cov(s) = sigma^2 (G A)(G A)^T: least squares under correlated errors
+    (the "sandwich", e.g. Greene, Econometric Analysis, 7th ed., sec. 9.2), which counts
+    the few degrees of freedom a low-pass leaves instead of taking every row for one."""
     g = np.linalg.pinv(x)
     s: Array = (g @ y).astype(np.float64)
     e = y - x @ s
-    left = noise - x @ (g @ noise)  # M A
-    sigma2 = float(e @ e) / max(float(np.sum(left * left)), 1e-300)
-    return s, np.sqrt(sigma2 * np.sum((g @ noise) ** 2, axis=1)), e
+    ga = np.stack([noise_t(row) for row in g])  # G A, row by row
+    kept = noise_norm2 - sum(float(noise_t(x[:, j]) @ ga[j]) for j in range(x.shape[1]))
+    sigma2 = float(e @ e) / max(kept, 1e-300)
+    return s, np.sqrt(sigma2 * np.sum(ga * ga, axis=1)), e
 
 
-def _convolution(kernel: Array, samples: int) -> Array:
-    """The matrix K with K w = :func:`_smooth` (w) for ``samples`` samples: (samples - m + 1, samples)."""
-    m = len(kernel)
-    rows = samples - m + 1
-    out = np.zeros((rows, samples))
-    for i in range(rows):
-        out[i, i:i + m] = kernel[::-1]
-    return out
+def _hold_noise(kernel: Array, n: int, dt: float
+                ) -> tuple[tuple[Callable[[Array], Array], float], tuple[Callable[[Array], Array], float]]:
+    """How white sensor noise reaches :func:`fit_hold`'s rows, as :func:`_lstsq` takes it.
+
+    The low-pass K (n rows of n + m - 1 samples; row i the reversed kernel from sample
+    i, :func:`_smooth`) has K^T y = y convolved with the reversed kernel and ||K||_F^2 =
+    n sum k^2. The horizontal rows are K on each accelerometer axis, then two noiseless
+    prior rows. The vertical rows are K applied to the integrated gyroscope, A = K L
+    with L w = dt cumsum(w): A^T y = dt (reversed cumulative sum of K^T y); row i of A
+    is dt for the i + 1 samples up to i, then dt C[m - 2], ..., dt C[0] (C the
+    kernel's cumulative sum, the kernel symmetric), so ||A||_F^2 = dt^2 (n (n + 1) / 2
+    + n sum_{s < m - 1} C[s]^2)."""
+    flipped = kernel[::-1]
+
+    def horizontal(y: Array) -> Array:
+        return np.concatenate([np.convolve(y[:n], flipped), np.convolve(y[n:2 * n], flipped)])
+
+    def vertical(y: Array) -> Array:
+        return dt * np.cumsum(np.convolve(y, flipped)[::-1])[::-1]
+
+    tail = np.cumsum(kernel)[:-1]
+    return ((horizontal, 2.0 * n * float(kernel @ kernel)),
+            (vertical, dt * dt * (n * (n + 1) / 2.0 + n * float(tail @ tail))))
 
 
 def _lever_columns(gyr: Array, dw: Array, kernel: Array, basis: Array) -> Array:
@@ -425,10 +444,7 @@ def fit_hold(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
     basis = _basis(a.mean(axis=0) / float(np.linalg.norm(a.mean(axis=0))))
     tau = _smooth(tt - tt[0], kernel)
     n = len(tau)
-    smooth = _convolution(kernel, len(tt))  # the low-pass as a matrix: what noise reaches the rows
-    noise_h = np.zeros((2 * n + 2, 2 * len(tt)))  # the accelerometer's white noise, per axis
-    noise_h[:n, :len(tt)], noise_h[n:2 * n, len(tt):] = smooth, smooth
-    noise_v = dt * np.cumsum(smooth[:, ::-1], axis=1)[:, ::-1]  # the gyroscope's, integrated to a turn
+    noise_h, noise_v = _hold_noise(kernel, n, dt)  # what white sensor noise does to the rows
     lever = _lever_columns(g, _smooth(g, dkernel), kernel, basis)
     # unknowns: db_e1, db_e2, const_e1, const_e2, the lever arm r_e1, r_e2, r_up; two prior rows
     x_h = np.zeros((2 * n + 2, 7))
@@ -444,9 +460,9 @@ def fit_hold(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
         start = np.sum(quat.rotate(q[centre:centre + n], a_lp), axis=0)  # taken back to the start
         v = _smooth(quat.rotate(quat.conjugate(q), start / np.linalg.norm(start)), kernel)
         d = (a_lp / GRAVITY - v) @ basis[:2].T
-        s_h, se_h, e_h = _lstsq(x_h, np.concatenate([d[:, 0], d[:, 1], [0.0, 0.0]]), noise_h)
+        s_h, se_h, e_h = _lstsq(x_h, np.concatenate([d[:, 0], d[:, 1], [0.0, 0.0]]), *noise_h)
         turn = _smooth(quat.to_rotvec(q), kernel) @ basis[2]
-        s_v, se_v, e_v = _lstsq(x_v, turn, noise_v)
+        s_v, se_v, e_v = _lstsq(x_v, turn, *noise_v)
         step = s_h[0] * basis[0] + s_h[1] * basis[1] + s_v[0] * basis[2]
         bias = bias + step
     ends = v[[0, -1]] + np.outer(tau[[0, -1]], np.cross(step, basis[2]))

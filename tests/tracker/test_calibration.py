@@ -141,6 +141,33 @@ def test_startup_recovers_a_known_bias_within_the_noise():
     assert np.all((0.5 * bound < np.mean(std_errors, axis=0)) & (np.mean(std_errors, axis=0) < 1.5 * bound))
 
 
+def test_the_standard_errors_equal_the_dense_least_squares_under_correlated_noise():
+    """The fit's standard errors, computed by convolutions, against the same least squares done
+    with the low-pass written out as a matrix: A the rows' noise per raw sample, sigma^2 =
+    e.e / tr(A^T (I - H) A), Cov(s) = sigma^2 G A A^T G^T (G = pinv(x), H = x G)."""
+    rng = np.random.default_rng(3)
+    kernel, _ = C._blackman(0.05, 0.005)  # 10 taps
+    m, n, dt = len(kernel), 40, 0.005
+    k = np.zeros((n, n + m - 1))
+    for i in range(n):
+        k[i, i:i + m] = kernel[::-1]
+    (h_t, h_norm2), (v_t, v_norm2) = C._hold_noise(kernel, n, dt)
+    a_h = np.zeros((2 * n + 2, 2 * (n + m - 1)))
+    a_h[:n, :n + m - 1], a_h[n:2 * n, n + m - 1:] = k, k
+    a_v = k @ (dt * np.tril(np.ones((n + m - 1, n + m - 1))))
+    for a, noise_t, norm2 in ((a_h, h_t, h_norm2), (a_v, v_t, v_norm2)):
+        x = rng.normal(size=(a.shape[0], 3))
+        y = x @ [1.0, -2.0, 0.5] + a @ rng.normal(size=a.shape[1])
+        g = np.linalg.pinv(x)
+        e = y - x @ (g @ y)
+        sigma2 = (e @ e) / np.trace(a.T @ (np.eye(len(y)) - x @ g) @ a)
+        dense = np.sqrt(sigma2 * np.diag(g @ a @ a.T @ g.T))
+        s, se, residual = C._lstsq(x, y, noise_t, norm2)
+        assert norm2 == pytest.approx(np.sum(a * a), rel=1e-12)
+        assert np.allclose(s, g @ y) and np.allclose(residual, e)
+        assert np.allclose(se, dense, rtol=1e-10)
+
+
 def test_moving_during_startup_is_rejected_with_a_reason():
     rng = np.random.default_rng(6)
     gyr, acc = join(still(rng, 0.8, BIAS), swinging(rng, 0.5, BIAS), still(rng, 0.8, BIAS))
