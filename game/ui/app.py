@@ -48,6 +48,8 @@ if TYPE_CHECKING:  # the virtual board is imported only when one is used
 WINDOW = (1280, 720)
 HOLD_S = {"down": 2.5, "forward": 2.0}
 GET_READY_S = 2.0
+VIRTUAL_CALIBRATED = ("the virtual player wears its board as designed and does not follow prompts: "
+                      "it needs no wearing calibration (Play starts at once)")
 BOARD_SCAN_S = 2.0
 NOTICE_LINES = 4  # the menu shows the latest notices (start-up ones are also printed on stderr)
 WHITE, RED, GREEN, YELLOW = (240, 240, 240), (230, 70, 60), (90, 220, 120), (250, 210, 80)
@@ -272,6 +274,9 @@ class Menu:
             self.game.new_round()
             return Play(self.game)
         if item == "Calibrate":
+            if self.game.board_virtual:  # deaf to prompts: holding a pose is not what it does
+                self.game.notices.append(VIRTUAL_CALIBRATED)
+                return self
             return Calibration(self.game, then_play=False)
         if item == "Settings":
             return Settings(self.game)
@@ -284,7 +289,9 @@ class Menu:
 
     def labels(self) -> list[str]:
         """The items as shown: the board setup offered while the connected board has no saved calibration."""
-        return [f"{item}  (not done for this board)" if item == "Board setup" and self.game.board_uncalibrated
+        game = self.game
+        return [f"{item}  (not done for this board)" if item == "Board setup" and game.board_uncalibrated
+                else f"{item}  (not needed: virtual player)" if item == "Calibrate" and game.board_virtual
                 else item for item in self.items]
 
     def draw(self, surface: pygame.Surface) -> None:

@@ -158,6 +158,18 @@ def test_virtual_input_plays_from_a_simulated_board_and_stops_it_on_close(tmp_pa
     assert a.game.virtual_board is None and not os.path.exists(board.port)
 
 
+def test_the_menu_says_the_virtual_player_needs_no_calibration_and_stays(tmp_path):
+    a = App(Preferences(input="virtual"), config_dir=tmp_path, seed=2)
+    try:
+        menu = Menu(a.game)
+        assert "Calibrate  (not needed: virtual player)" in menu.labels()
+        assert menu.choose("Calibrate") is menu
+        assert "does not follow prompts" in a.game.notices[-1]
+        assert isinstance(menu.choose("Play"), Play)  # and play starts at once
+    finally:
+        a.close()
+
+
 def test_calibrating_a_board_that_keeps_moving_fails_with_the_reason(app):
     import time
 
