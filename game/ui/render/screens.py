@@ -48,17 +48,33 @@ class Screens:
             else:
                 self.text.blit(surface, item, size, DIM_TEXT, (w // 2, y), "center")
 
+    def panel_lines(self, lines: Sequence[str], width: int, surface_height: int) -> list[str]:
+        """``lines`` broken at spaces to fit ``width`` pixels of a panel on a surface this high (a
+        word longer than the width stays whole)."""
+        font = self.text.font(_panel_text_size(surface_height))
+        out: list[str] = []
+        for line in lines:
+            words, row = str(line).split(" "), ""
+            for word in words:
+                wider = f"{row} {word}" if row else word
+                if row and font.size(wider)[0] > width:
+                    out.append(row)
+                    wider = word
+                row = wider
+            out.append(row)
+        return out
+
     def draw_panel(self, surface: pygame.Surface, lines: list[str], rect) -> None:
-        """A translucent panel with lines of text (those that fit)."""
+        """A translucent panel with lines of text, wrapped to its width (those that fit)."""
         rect = pygame.Rect(rect)
         surface.blit(self.sprites.panel(rect.width, rect.height), rect)
-        size = max(16, min(28, surface.get_height() // 28))
+        size = _panel_text_size(surface.get_height())
         y = rect.top + 8
-        for line in lines:
+        for line in self.panel_lines(lines, rect.width - 24, surface.get_height()):
             if y + size * 0.7 > rect.bottom:
                 break
             if line:
-                self.text.blit(surface, str(line), size, TEXT, (rect.left + 12, y))
+                self.text.blit(surface, line, size, TEXT, (rect.left + 12, y))
             y += int(size * 0.95)
 
     def draw_banner(self, surface: pygame.Surface, text: str, colour: Sequence[int] = TEXT) -> None:
@@ -114,3 +130,8 @@ class Screens:
             pygame.draw.lines(surface, AVATAR_ARM, False, p2[:4], 4)
             for j, colour in zip(range(4), ((255, 255, 255), (255, 210, 120), (255, 180, 80), (255, 140, 60))):
                 pygame.draw.circle(surface, colour, p2[j], 5 if j < 3 else 3)
+
+
+def _panel_text_size(surface_height: int) -> int:
+    """The panels' text size on a surface this high."""
+    return max(16, min(28, surface_height // 28))

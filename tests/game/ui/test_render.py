@@ -396,3 +396,18 @@ def test_calls_painted_again_unchanged_come_from_one_picture_with_the_same_pixel
     assert len(drawn) == 4  # two runs drawn at the first frame and again for their pictures, then blitted
     calls[3] = (line, ((255, 160, 50), (330, 300), (20, 360), 6))  # the second run moves: drawn as it comes
     assert frame(repeated.paint) == frame(paint_calls)
+
+
+def test_panel_text_is_wrapped_at_spaces_to_the_panels_width():
+    r = Renderer((1280, 720))
+    notice = ("board calibration /root/.config/energyball/boards/virtual-imu-71.json: no calibration saved "
+              "for this board yet (armtracker calibrate accel, then calibrate mag); using the default")
+    lines = r.panel_lines(["input: board 200 Hz, loss 0.0%", notice], 600, 720)
+    font = r.text.font(max(16, min(28, 720 // 28)))
+    assert lines[0] == "input: board 200 Hz, loss 0.0%"
+    assert len(lines) >= 3 and all(font.size(line)[0] <= 600 for line in lines)
+    assert " ".join(lines[1:]) == notice  # every word kept, in order
+    surface = pygame.Surface((1280, 720))
+    r.draw_panel(surface, [notice], pygame.Rect(20, 500, 640, 200))  # drawn inside the panel
+    pixels = pygame.surfarray.array3d(surface)  # [x, y, rgb]
+    assert pixels[20:660, 500:700].any() and not pixels[660:, 500:700].any()
