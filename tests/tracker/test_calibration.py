@@ -168,6 +168,25 @@ def test_the_standard_errors_equal_the_dense_least_squares_under_correlated_nois
         assert np.allclose(se, dense, rtol=1e-10)
 
 
+def test_a_minute_long_hold_is_judged_like_a_short_one():
+    """Any length of hold is taken (the fit never forms the low-pass as a matrix, which for a
+    minute at 200 Hz would be 12,000 x 24,000 numbers): the bias within its noise bound, which
+    shrinks as the hold grows. Over a minute the gyroscope's own random walk, 1.1 sigma /
+    sqrt(n) (the still-board test above), outweighs the accelerometer's tilt noise about the
+    horizontal axes too (the tilt the gyroscope predicts wanders with it): the bound there is
+    both in quadrature."""
+    gyr, acc = still(np.random.default_rng(9), 60.0, BIAS)
+    result = C.startup_bias(times(len(gyr)), gyr, acc)
+    assert result.ok, result.message
+    span = 60.0 - SMOOTH
+    n = round(span * FS)
+    walk = 1.1 * GYR_SIGMA / math.sqrt(n)
+    horizontal = math.hypot(ACC_SIGMA / G * math.sqrt(12 / (n * span ** 2)), walk)
+    bound = np.array([horizontal, horizontal, walk])
+    assert np.all(np.abs(result.bias - BIAS) < 4 * bound)
+    assert np.all(result.std_error < 1.5 * bound)
+
+
 def test_moving_during_startup_is_rejected_with_a_reason():
     rng = np.random.default_rng(6)
     gyr, acc = join(still(rng, 0.8, BIAS), swinging(rng, 0.5, BIAS), still(rng, 0.8, BIAS))
