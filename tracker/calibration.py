@@ -351,30 +351,37 @@ def _basis(up: Array) -> Array:
     return np.stack([e1, np.cross(up, e1), up])
 
 
-def _lstsq(x: Array, y: Array, noise_t: Callable[[Array], Array], noise_norm2: float
-           ) -> tuple[Array, Array, Array]:
-    """Least squares y ~ x s: the solution, its standard errors and the residual.
+class _RowNoise(NamedTuple):
+    """How the raw samples' white noise w reaches a fit's low-passed rows, A w, without A (rows x
+    samples) itself: its ``transpose`` (rows -> samples) and ``norm2`` = ||A||_F^2."""
 
-    The rows are low-passed, so their noise is correlated: y = x s + A w, with w the
-    raw samples' white noise (one unknown variance sigma^2) and A what reaches the
-    rows, given by its transpose ``noise_t`` (rows -> samples) and ``noise_norm2`` =
-    ||A||_F^2 (A itself, rows x samples, is never formed). With G = (x^T x)^-1 x^T and
-    H = x G, E[e^T e] = sigma^2 tr(A^T (I - H) A) = sigma^2 (||A||_F^2 - sum_j (A^T x_j) .
-    (A^T g_j)), and Cov(s) = sigma^2 (G A)(G A)^T: least squares under correlated errors
-    (the "sandwich", e.g. Greene, Econometric Analysis, 7th ed., sec. 9.2), which counts
-    the few degrees of freedom a low-pass leaves instead of taking every row for one."""
-    g = np.linalg.pinv(x)
-    s: Array = (g @ y).astype(np.float64)
-    e = y - x @ s
-    ga = np.stack([noise_t(row) for row in g])  # G A, row by row
-    kept = noise_norm2 - sum(float(noise_t(x[:, j]) @ ga[j]) for j in range(x.shape[1]))
+    transpose: Callable[[Array], Array]
+    norm2: float
+
+
+def _solve(x: Array, g: Array, y: Array) -> tuple[Array, Array]:
+    """The least-squares fit y ~ x s with g = pinv(x) (made once per design): s and the residual."""
+    s: Array = g @ y
+    return s, y - x @ s
+
+
+def _std_errors(x: Array, g: Array, e: Array, noise: _RowNoise) -> Array:
+    """Standard errors of the least-squares fit y ~ x s, s = g y (g = pinv(x)), whose residual is ``e``.
+
+    The rows are low-passed, so their noise is correlated: y = x s + A w, with one unknown
+    variance sigma^2 for w. With H = x g, E[e^T e] = sigma^2 tr(A^T (I - H) A) = sigma^2
+    (||A||_F^2 - sum_j (A^T x_j) . (A^T g_j)), and Cov(s) = sigma^2 (g A)(g A)^T: least squares
+    under correlated errors (the "sandwich", e.g. Greene, Econometric Analysis, 7th ed., sec.
+    9.2), which counts the few degrees of freedom a low-pass leaves instead of taking every
+    row for one."""
+    ga = np.stack([noise.transpose(row) for row in g])  # g A, row by row
+    kept = noise.norm2 - sum(float(noise.transpose(x[:, j]) @ ga[j]) for j in range(x.shape[1]))
     sigma2 = float(e @ e) / max(kept, 1e-300)
-    return s, np.sqrt(sigma2 * np.sum(ga * ga, axis=1)), e
+    return np.sqrt(sigma2 * np.sum(ga * ga, axis=1))
 
 
-def _hold_noise(kernel: Array, n: int, dt: float
-                ) -> tuple[tuple[Callable[[Array], Array], float], tuple[Callable[[Array], Array], float]]:
-    """How white sensor noise reaches :func:`fit_hold`'s rows, as :func:`_lstsq` takes it.
+def _hold_noise(kernel: Array, n: int, dt: float) -> tuple[_RowNoise, _RowNoise]:
+    """How white sensor noise reaches :func:`fit_hold`'s rows, horizontal and vertical.
 
     The low-pass K (n rows of n + m - 1 samples; row i the reversed kernel from sample
     i, :func:`_smooth`) has K^T y = y convolved with the reversed kernel and ||K||_F^2 =
@@ -393,8 +400,8 @@ def _hold_noise(kernel: Array, n: int, dt: float
         return dt * np.cumsum(np.convolve(y, flipped)[::-1])[::-1]
 
     tail = np.cumsum(kernel)[:-1]
-    return ((horizontal, 2.0 * n * float(kernel @ kernel)),
-            (vertical, dt * dt * (n * (n + 1) / 2.0 + n * float(tail @ tail))))
+    return (_RowNoise(horizontal, 2.0 * n * float(kernel @ kernel)),
+            _RowNoise(vertical, dt * dt * (n * (n + 1) / 2.0 + n * float(tail @ tail))))
 
 
 def _lever_columns(gyr: Array, dw: Array, kernel: Array, basis: Array) -> Array:
@@ -452,6 +459,7 @@ def fit_hold(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
     x_h[:n, 4:], x_h[n:2 * n, 4:] = lever[:, 0, :], lever[:, 1, :]
     x_h[2 * n, 4] = x_h[2 * n + 1, 5] = math.sqrt(n) * FIT_NOISE / ARM_RADIUS_M  # a prior: r_e ~ 0
     x_v = np.stack([tau, np.ones(n)], axis=1)
+    g_h, g_v = np.linalg.pinv(x_h), np.linalg.pinv(x_v)  # the same designs in both passes
     bias = np.zeros(3)
     a_lp = _smooth(a, kernel)
     centre = (len(kernel) - 1) // 2  # the sample at the middle of each low-passed one
@@ -460,9 +468,8 @@ def fit_hold(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
         start = np.sum(quat.rotate(q[centre:centre + n], a_lp), axis=0)  # taken back to the start
         v = _smooth(quat.rotate(quat.conjugate(q), start / np.linalg.norm(start)), kernel)
         d = (a_lp / GRAVITY - v) @ basis[:2].T
-        s_h, se_h, e_h = _lstsq(x_h, np.concatenate([d[:, 0], d[:, 1], [0.0, 0.0]]), *noise_h)
-        turn = _smooth(quat.to_rotvec(q), kernel) @ basis[2]
-        s_v, se_v, e_v = _lstsq(x_v, turn, *noise_v)
+        s_h, e_h = _solve(x_h, g_h, np.concatenate([d[:, 0], d[:, 1], [0.0, 0.0]]))
+        s_v, e_v = _solve(x_v, g_v, _smooth(quat.to_rotvec(q), kernel) @ basis[2])
         step = s_h[0] * basis[0] + s_h[1] * basis[1] + s_v[0] * basis[2]
         bias = bias + step
     ends = v[[0, -1]] + np.outer(tau[[0, -1]], np.cross(step, basis[2]))
@@ -471,6 +478,7 @@ def fit_hold(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
     rate = np.gradient(residual, tau, axis=0)
     norms = np.linalg.norm(rate, axis=1)
     worst = int(np.argmax(norms))
+    se_h, se_v = _std_errors(x_h, g_h, e_h, noise_h), _std_errors(x_v, g_v, e_v, noise_v)
     std_error = np.sqrt(np.array([se_h[0], se_h[1], se_v[0]]) ** 2 @ basis ** 2)
     return HoldFit(bias, std_error, tilt, float(norms[worst]),
                    bool(abs(rate[worst, 2]) > math.hypot(rate[worst, 0], rate[worst, 1])),

@@ -151,20 +151,21 @@ def test_the_standard_errors_equal_the_dense_least_squares_under_correlated_nois
     k = np.zeros((n, n + m - 1))
     for i in range(n):
         k[i, i:i + m] = kernel[::-1]
-    (h_t, h_norm2), (v_t, v_norm2) = C._hold_noise(kernel, n, dt)
+    noise_h, noise_v = C._hold_noise(kernel, n, dt)
     a_h = np.zeros((2 * n + 2, 2 * (n + m - 1)))
     a_h[:n, :n + m - 1], a_h[n:2 * n, n + m - 1:] = k, k
     a_v = k @ (dt * np.tril(np.ones((n + m - 1, n + m - 1))))
-    for a, noise_t, norm2 in ((a_h, h_t, h_norm2), (a_v, v_t, v_norm2)):
+    for a, noise in ((a_h, noise_h), (a_v, noise_v)):
         x = rng.normal(size=(a.shape[0], 3))
         y = x @ [1.0, -2.0, 0.5] + a @ rng.normal(size=a.shape[1])
         g = np.linalg.pinv(x)
         e = y - x @ (g @ y)
         sigma2 = (e @ e) / np.trace(a.T @ (np.eye(len(y)) - x @ g) @ a)
         dense = np.sqrt(sigma2 * np.diag(g @ a @ a.T @ g.T))
-        s, se, residual = C._lstsq(x, y, noise_t, norm2)
-        assert norm2 == pytest.approx(np.sum(a * a), rel=1e-12)
-        assert np.allclose(s, g @ y) and np.allclose(residual, e)
+        s, residual = C._solve(x, g, y)
+        se = C._std_errors(x, g, residual, noise)
+        assert noise.norm2 == pytest.approx(np.sum(a * a), rel=1e-12)
+        assert np.allclose(s, np.linalg.lstsq(x, y, rcond=None)[0]) and np.allclose(residual, e)
         assert np.allclose(se, dense, rtol=1e-10)
 
 
