@@ -299,11 +299,7 @@ class Menu:
         r.draw_world(surface, self.game.arena, self.game.avatar, 0.0)
         r.draw_title(surface, "ENERGYBALL", "raise your arm, flex, snap it straight")
         r.draw_menu(surface, self.labels(), self.selected, surface.get_height() // 2 - 40)
-        w, h = surface.get_size()
-        lines = r.panel_lines([f"input: {self.game.hud()['input']}", *self.game.notices[-NOTICE_LINES:]],
-                              w - 64, h)
-        height = 20 + 30 * len(lines)
-        r.draw_panel(surface, lines, pygame.Rect(20, h - height - 20, w - 40, height))
+        r.draw_footer(surface, [f"input: {self.game.hud()['input']}", *self.game.notices[-NOTICE_LINES:]])
 
 
 @dataclass

@@ -67,10 +67,21 @@ class Screens:
     def draw_panel(self, surface: pygame.Surface, lines: list[str], rect) -> None:
         """A translucent panel with lines of text, wrapped to its width (those that fit)."""
         rect = pygame.Rect(rect)
+        self._panel(surface, self.panel_lines(lines, rect.width - 24, surface.get_height()), rect)
+
+    def draw_footer(self, surface: pygame.Surface, lines: list[str]) -> None:
+        """A panel along the bottom edge, as tall as its lines wrapped to the width."""
+        w, h = surface.get_size()
+        wrapped = self.panel_lines(lines, w - 64, h)
+        height = 20 + 30 * len(wrapped)
+        self._panel(surface, wrapped, pygame.Rect(20, h - height - 20, w - 40, height))
+
+    def _panel(self, surface: pygame.Surface, lines: list[str], rect: pygame.Rect) -> None:
+        """The panel and its lines as they are (those that fit)."""
         surface.blit(self.sprites.panel(rect.width, rect.height), rect)
         size = _panel_text_size(surface.get_height())
         y = rect.top + 8
-        for line in self.panel_lines(lines, rect.width - 24, surface.get_height()):
+        for line in lines:
             if y + size * 0.7 > rect.bottom:
                 break
             if line:
