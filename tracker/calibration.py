@@ -459,7 +459,7 @@ def fit_hold(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
     x_h[:n, 4:], x_h[n:2 * n, 4:] = lever[:, 0, :], lever[:, 1, :]
     x_h[2 * n, 4] = x_h[2 * n + 1, 5] = math.sqrt(n) * FIT_NOISE / ARM_RADIUS_M  # a prior: r_e ~ 0
     x_v = np.stack([tau, np.ones(n)], axis=1)
-    g_h, g_v = np.linalg.pinv(x_h), np.linalg.pinv(x_v)  # the same designs in both passes
+    g_h, g_v = (np.linalg.pinv(x).astype(np.float64) for x in (x_h, x_v))  # the same in both passes
     bias = np.zeros(3)
     a_lp = _smooth(a, kernel)
     centre = (len(kernel) - 1) // 2  # the sample at the middle of each low-passed one
