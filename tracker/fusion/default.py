@@ -46,7 +46,12 @@ Two things hold up on a real player with a real board:
   stayed consistent for a while with the board turning. A field switched on
   again is on probation: it turns the heading slowly, and if it is found bad
   meanwhile, what it taught is taken back, so it leaves the pose as no
-  magnetometer would have.
+  magnetometer would have. A disturbance that varies with position can also
+  turn the field's direction while its norm and dip stay the same: the
+  heading innovation (the field's heading against the gyroscope's) then
+  spreads as the arm moves, and the field counts as much less as a Kalman
+  gain would for that noise (x-io Fusion's magnetic rejection judges the
+  same innovation; here it weighs rather than switches).
 """
 
 from __future__ import annotations
@@ -141,6 +146,10 @@ class DefaultParams:
     mag_judge_t: float = 1.5  # the field is judged once this much of the window has filled
     mag_turn_th: float = 0.1  # "the board has turned": spread of its axes over the window (rad^2)
     mag_on_t: float = 15.0  # the field is used (again) after being consistent this long while turning
+    mag_head_lp_tau: float = 0.5  # the heading innovation is low-passed this much before its spread is judged
+    mag_head_sd: float = math.radians(2.0)  # a field whose heading spreads up to this turns the heading at
+    # tau_mag; one that spreads s > this, (s / this)^2 times more slowly (its noise variance, as a Kalman
+    # gain). BROAD's undisturbed real recordings spread 0.7-1.3 deg (median), 1.0-3.1 (90th percentile)
     startup_t: float = 1.0  # during the first second corrections use plain averaging (fast start)
 
 
@@ -158,6 +167,7 @@ class DefaultState:
     bias_lp_r1: LowPass2
     bias_lp_r2: LowPass2
     bias_lp_rb: LowPass2  # R_IS b_est low-passed alike
+    head_lp: LowPass2  # the heading innovation as a unit vector (cos, sin, 0), low-passed
     tilt_sum: tuple[float, float] = (0.0, 0.0)  # the inclination corrections since the last bias update
     tilt_dt: float = 0.0  # over this long (s) ...
     tilt_n: int = 0  # ... in this many samples
@@ -182,13 +192,13 @@ class DefaultState:
     win_dip_var: float = 0.0  # ... and its variance (rad^2)
     win_y: Vec = (0.0, 0.0, 0.0)  # the window's mean of world y in the sensor frame
     win_z: Vec = (0.0, 0.0, 0.0)  # and of world z: how far the board turned
+    win_head: tuple[float, float] = (1.0, 0.0)  # ... its window's mean: its length says how it spreads
     mag_good_t: float = 0.0  # seconds an unusable field has been consistent while turning
     mag_checked: bool = False  # the field has proved consistent while the board turned
     mag_reason: str = ""  # why the magnetometer is off ("": not found inconsistent)
     mag_use_t: float = 0.0  # seconds the field has been in use since it was last switched on
     taught_heading: float = 0.0  # the heading turns it made on probation (rad) ...
     taught_bias: Vec = (0.0, 0.0, 0.0)  # ... and the bias it taught: taken back if it is found bad
-    drift_at_on: Vec = (0.0, 0.0, 0.0)  # the bias drift when it was switched on: restored then too
 
 
 class DefaultFilter(Filter[DefaultParams, DefaultState]):
@@ -205,7 +215,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         k = 1.0 / p.bias_tau_min
         return DefaultState(LowPass2(p.tau_acc), LowPass2(p.rest_lp_tau), LowPass2(p.rest_lp_tau), rest,
                             (k, 0.0, 0.0, k, 0.0, k), LowPass2(p.tau_acc), LowPass2(p.tau_acc),
-                            LowPass2(p.tau_acc), LowPass2(p.tau_acc))
+                            LowPass2(p.tau_acc), LowPass2(p.tau_acc), LowPass2(p.mag_head_lp_tau))
 
     @property
     def status(self) -> str:
@@ -218,6 +228,13 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         if not s.mag_samples:
             return "no magnetometer"
         return "magnetometer on" if s.mag_checked else "magnetometer being checked"
+
+    @property
+    def heading_spread(self) -> float:
+        """How the field's heading has spread against the gyroscope's over the last
+        ``mag_window_t`` (rad, a standard deviation; :meth:`_heading_weight`)."""
+        hx, hy = self._state.win_head
+        return math.sqrt(max(0.0, 2.0 * (1.0 - math.sqrt(hx * hx + hy * hy))))
 
     def _step(self, gyr: Vec, acc: Vec | None, mag: Vec | None, dt: float) -> Quat:
         s, p = self._state, self.params
@@ -453,21 +470,22 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         if norm < 1e-6:
             return
         dip = math.asin(max(-1.0, min(1.0, mz / norm)))
+        # The horizontal field points atan2(mx, my) east of north (+y) in the 6D frame;
+        # turning about +z by that angle brings it back to north.
+        err = (math.atan2(mx, my) - s.heading + math.pi) % (2 * math.pi) - math.pi
         self._judge_field(q6, norm, dip, dt)
+        weight = self._heading_weight(err, dt)
         if s.mag_reason or not self._field_undisturbed(norm, dip, dt) or (s.t > p.startup_t and not s.mag_checked):
             self.flags.mag_rejected = True
             return
-        # The horizontal field points atan2(mx, my) east of north (+y) in the 6D frame;
-        # turning about +z by that angle brings it back to north.
-        target = math.atan2(mx, my)
-        err = (target - s.heading + math.pi) % (2 * math.pi) - math.pi
-        # On probation (its first mag_on_t of use) the field turns the heading more slowly.
-        k = dt / (p.tau_mag if s.mag_use_t > p.mag_on_t else p.tau_mag_probation)
+        # On probation (its first mag_on_t of use) the field turns the heading more slowly, and
+        # a field whose heading spreads as the board moves turns it more slowly still.
+        k = dt * weight / (p.tau_mag if s.mag_use_t > p.mag_on_t else p.tau_mag_probation)
         if s.t <= p.startup_t:
             k = max(k, 1.0 / s.mag_samples)  # fast start: plain average of the first second
         else:
             b = s.bias
-            self._learn_bias_from_heading(q6, k * err / dt, dt)
+            self._learn_bias_from_heading(q6, k * err / dt, weight, dt)
             self._remember_field(k * err, (s.bias[0] - b[0], s.bias[1] - b[1], s.bias[2] - b[2]), dt)
         s.heading = (s.heading + k * err + math.pi) % (2 * math.pi) - math.pi
 
@@ -475,7 +493,9 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         """What a field taught (heading turn, bias change) in its first ``mag_on_t`` of use:
         a field back in use is on probation that long, and if found bad meanwhile all it
         taught is taken back (:meth:`_take_back_field`), so a bad field that once looked
-        consistent leaves the pose no worse than no magnetometer would have."""
+        consistent leaves the pose no worse than no magnetometer would have. (After its
+        probation a field teaches only as fast as its heading's spread allows:
+        :meth:`_heading_weight`.)"""
         s = self._state
         s.mag_use_t += dt
         if s.mag_use_t > self.params.mag_on_t:
@@ -485,14 +505,16 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         s.taught_bias = (x + db[0], y + db[1], z + db[2])
 
     def _take_back_field(self) -> None:
-        """A field found bad on probation: what it taught is taken back (:meth:`_remember_field`)."""
+        """A field found bad on probation: what it taught is taken back (:meth:`_remember_field`).
+        The bias's drift is left as it is: the field never teaches it (:meth:`_observe_bias`), and
+        what the inclination taught it meanwhile is the gyroscope's own (a warming board's)."""
         s = self._state
         (x, y, z), b = s.taught_bias, s.bias
         s.bias = self._clamp(b[0] - x, b[1] - y, b[2] - z)
         s.heading = (s.heading - s.taught_heading + math.pi) % (2 * math.pi) - math.pi
-        s.taught_heading, s.taught_bias, s.drift = 0.0, (0.0, 0.0, 0.0), s.drift_at_on
+        s.taught_heading, s.taught_bias = 0.0, (0.0, 0.0, 0.0)
 
-    def _learn_bias_from_heading(self, q6: Quat, c: float, dt: float) -> None:
+    def _learn_bias_from_heading(self, q6: Quat, c: float, weight: float, dt: float) -> None:
         """The bias about the vertical from the heading correction rate ``c`` (rad/s): the
         magnetometer's share of Mahony's integral term (eq. 32), which gravity cannot give.
 
@@ -501,12 +523,49 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         frame. The heading follows the field with time constant ``tau_mag``, so this
         measurement counts ``tau_mag / bias_tau_min`` times less than the
         inclination's: with the Kalman gain bounded by 1 / bias_tau_min, the loop of
-        heading and bias is then damped (zeta about 0.5).
+        heading and bias is then damped (zeta about 0.5). A field whose heading
+        spreads counts ``weight`` times less again (:meth:`_heading_weight`).
         """
         p = self.params
         w, x, y, z = q6
         h = (2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y))
-        self._observe_bias(h, -c, p.tau_mag / p.bias_tau_min / dt, drift=False)
+        self._observe_bias(h, -c, p.tau_mag / p.bias_tau_min / weight / dt, drift=False)
+
+    def _heading_weight(self, err: float, dt: float) -> float:
+        """How much the field's heading may count, from how its heading innovation ``err``
+        (the field's heading in the 6D frame minus the filter's, rad) spreads as the board moves.
+
+        The Earth's field has one direction wherever the board points, so the
+        innovation moves only as slowly as the gyroscope's heading drifts. A
+        disturbance that varies with position turns the field's direction as the
+        arm moves, also where its strength and dip stay the same (what
+        :meth:`_judge_field` sees); the innovation then wanders with the arm's
+        pose. Low-passed over ``mag_head_lp_tau`` (which averages the
+        magnetometer's white noise, harmless to a correction over ``tau_mag``)
+        and taken as a unit vector (no wrap at +-pi), its spread over the window
+        ``mag_window_t`` is 2 (1 - R), R the length of the window's mean vector
+        (circular statistics: K. V. Mardia and P. E. Jupp, "Directional
+        Statistics", 2000, sec. 2.3.1; about the variance for small spreads).
+        Treated as the measurement's noise variance, it scales the gain as a
+        Kalman filter's would (x-io Fusion rejects a field whose heading
+        innovation is large; this weighs it instead): 1 up to ``mag_head_sd``,
+        (mag_head_sd / spread)^2 beyond, never 0 (the spread is at most sqrt(2)).
+        """
+        s, p = self._state, self.params
+        if s.t <= p.startup_t:
+            return 1.0  # the start-up's plain average of the heading
+        first = not s.head_lp.primed
+        c, sn, _ = s.head_lp.step((math.cos(err), math.sin(err), 0.0), dt)
+        n = math.sqrt(c * c + sn * sn)
+        if n > 1e-9:  # (a low-passed unit vector of length 0: no direction to add)
+            c, sn = c / n, sn / n
+            hx, hy = (c, sn) if first else s.win_head
+            a = dt / p.mag_window_t
+            if a > 1.0:
+                a = 1.0
+            s.win_head = (hx + a * (c - hx), hy + a * (sn - hy))
+        spread = self.heading_spread
+        return 1.0 if spread <= p.mag_head_sd else (p.mag_head_sd / spread) ** 2
 
     def _field_undisturbed(self, norm: float, dip: float, dt: float) -> bool:
         """Magnetic disturbance test on the field's norm and dip angle (VQF sec. 3.4)."""
@@ -576,7 +635,6 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
             if s.mag_good_t >= p.mag_on_t:  # consistent long enough while turning: used, the window its reference
                 s.mag_reason, s.mag_good_t, s.mag_checked = "", 0.0, True
                 s.mag_use_t, s.taught_heading, s.taught_bias = 0.0, 0.0, (0.0, 0.0, 0.0)
-                s.drift_at_on = s.drift
                 s.mag_norm, s.mag_dip = s.win_norm, s.win_dip
 
 
