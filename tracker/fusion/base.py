@@ -56,7 +56,7 @@ class Flags:
     acc_rejected: bool = False  # accelerometer judged disturbed and not used (where supported)
     mag_rejected: bool = False  # magnetometer judged disturbed and not used (where supported)
     mag_unusable: bool = False  # magnetometer judged unusable for now (uncalibrated or disturbed; where
-    # supported): heading from the gyroscope alone until it proves consistent again
+    # supported): heading from the gyroscope alone (or nearly) until it proves consistent again
 
 
 class _HasQuat(Protocol):

@@ -73,6 +73,7 @@ Mat3 = tuple[float, float, float, float, float, float, float, float, float]  # a
 
 MAG_STRENGTH = "field strength changes as the board moves (uncalibrated or disturbed?)"
 MAG_DIP = "field direction changes as the board moves (uncalibrated or disturbed?)"
+MAG_WEAK = "magnetometer weak: its heading wanders as the board moves (disturbed?)"
 
 
 def _limit(x: float, y: float, z: float, m: float) -> Vec:
@@ -147,6 +148,8 @@ class DefaultParams:
     mag_turn_th: float = 0.1  # "the board has turned": spread of its axes over the window (rad^2)
     mag_on_t: float = 15.0  # the field is used (again) after being consistent this long while turning
     mag_head_lp_tau: float = 0.5  # the heading innovation is low-passed this much before its spread is judged
+    mag_weak: float = 0.1  # a field in use weighed below this counts as weak (status, mag_unusable): its
+    # heading spreads more than about 3 mag_head_sd, more than BROAD's real fields ever did
     mag_head_sd: float = math.radians(2.0)  # a field whose heading spreads up to this turns the heading at
     # tau_mag; one that spreads s > this, (s / this)^2 times more slowly (its noise variance, as a Kalman
     # gain). BROAD's undisturbed real recordings spread 0.7-1.3 deg (median), 1.0-3.1 (90th percentile)
@@ -193,6 +196,7 @@ class DefaultState:
     win_y: Vec = (0.0, 0.0, 0.0)  # the window's mean of world y in the sensor frame
     win_z: Vec = (0.0, 0.0, 0.0)  # and of world z: how far the board turned
     win_head: tuple[float, float] = (1.0, 0.0)  # ... its window's mean: its length says how it spreads
+    mag_weight: float = 1.0  # what the field's heading counts for now (:meth:`DefaultFilter._heading_weight`)
     mag_good_t: float = 0.0  # seconds an unusable field has been consistent while turning
     mag_checked: bool = False  # the field has proved consistent while the board turned
     mag_reason: str = ""  # why the magnetometer is off ("": not found inconsistent)
@@ -221,13 +225,16 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
     def status(self) -> str:
         """The magnetometer's use in words: "magnetometer on", "magnetometer off: <why>",
         "magnetometer being checked" (its field not yet consistent for ``mag_on_t``; the heading
-        is the gyroscope's meanwhile) or "no magnetometer" (none seen yet)."""
+        is the gyroscope's meanwhile), :data:`MAG_WEAK` (in use but weighed below ``mag_weak``:
+        the heading is nearly the gyroscope's) or "no magnetometer" (none seen yet)."""
         s = self._state
         if s.mag_reason:
             return "magnetometer off: " + s.mag_reason
         if not s.mag_samples:
             return "no magnetometer"
-        return "magnetometer on" if s.mag_checked else "magnetometer being checked"
+        if not s.mag_checked:
+            return "magnetometer being checked"
+        return MAG_WEAK if s.mag_weight < self.params.mag_weak else "magnetometer on"
 
     @property
     def heading_spread(self) -> float:
@@ -261,7 +268,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         # 3. Heading from the magnetometer, with disturbance rejection (VQF sec. 3.4).
         if mag is not None:
             self._correct_heading(q6, mag, dt)
-        self.flags.mag_unusable = s.mag_reason != ""
+        self.flags.mag_unusable = s.mag_reason != "" or (s.mag_checked and s.mag_weight < p.mag_weak)
         s.q = normalize(mul(about_z(s.heading), q6))
         return s.q
 
@@ -565,7 +572,8 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
                 a = 1.0
             s.win_head = (hx + a * (c - hx), hy + a * (sn - hy))
         spread = self.heading_spread
-        return 1.0 if spread <= p.mag_head_sd else (p.mag_head_sd / spread) ** 2
+        s.mag_weight = 1.0 if spread <= p.mag_head_sd else (p.mag_head_sd / spread) ** 2
+        return s.mag_weight
 
     def _field_undisturbed(self, norm: float, dip: float, dt: float) -> bool:
         """Magnetic disturbance test on the field's norm and dip angle (VQF sec. 3.4)."""
