@@ -148,11 +148,11 @@ class DefaultParams:
     mag_turn_th: float = 0.1  # "the board has turned": spread of its axes over the window (rad^2)
     mag_on_t: float = 15.0  # the field is used (again) after being consistent this long while turning
     mag_head_lp_tau: float = 0.5  # the heading innovation is low-passed this much before its spread is judged
-    mag_weak: float = 0.1  # a field in use weighed below this counts as weak (status, mag_unusable): its
-    # heading spreads more than about 3 mag_head_sd, more than BROAD's real fields ever did
     mag_head_sd: float = math.radians(2.0)  # a field whose heading spreads up to this turns the heading at
-    # tau_mag; one that spreads s > this, (s / this)^2 times more slowly (its noise variance, as a Kalman
-    # gain). BROAD's undisturbed real recordings spread 0.7-1.3 deg (median), 1.0-3.1 (90th percentile)
+    # tau_mag; one that spreads s > this, s / this times more slowly (a steady-state Kalman gain).
+    # BROAD's undisturbed real recordings spread 0.7-1.3 deg (median), 1.0-3.1 (90th percentile)
+    mag_weak_sd: float = math.radians(6.0)  # a field in use whose heading spreads more is weak (status,
+    # mag_unusable): it counts a third or less; BROAD's undisturbed real fields spread at most 3.7 deg
     startup_t: float = 1.0  # during the first second corrections use plain averaging (fast start)
 
 
@@ -196,7 +196,6 @@ class DefaultState:
     win_y: Vec = (0.0, 0.0, 0.0)  # the window's mean of world y in the sensor frame
     win_z: Vec = (0.0, 0.0, 0.0)  # and of world z: how far the board turned
     win_head: tuple[float, float] = (1.0, 0.0)  # ... its window's mean: its length says how it spreads
-    mag_weight: float = 1.0  # what the field's heading counts for now (:meth:`DefaultFilter._heading_weight`)
     mag_good_t: float = 0.0  # seconds an unusable field has been consistent while turning
     mag_checked: bool = False  # the field has proved consistent while the board turned
     mag_reason: str = ""  # why the magnetometer is off ("": not found inconsistent)
@@ -225,8 +224,8 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
     def status(self) -> str:
         """The magnetometer's use in words: "magnetometer on", "magnetometer off: <why>",
         "magnetometer being checked" (its field not yet consistent for ``mag_on_t``; the heading
-        is the gyroscope's meanwhile), :data:`MAG_WEAK` (in use but weighed below ``mag_weak``:
-        the heading is nearly the gyroscope's) or "no magnetometer" (none seen yet)."""
+        is the gyroscope's meanwhile), :data:`MAG_WEAK` (in use, but its heading spreads beyond
+        ``mag_weak_sd``: it counts a third or less) or "no magnetometer" (none seen yet)."""
         s = self._state
         if s.mag_reason:
             return "magnetometer off: " + s.mag_reason
@@ -234,7 +233,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
             return "no magnetometer"
         if not s.mag_checked:
             return "magnetometer being checked"
-        return MAG_WEAK if s.mag_weight < self.params.mag_weak else "magnetometer on"
+        return MAG_WEAK if self.heading_spread > self.params.mag_weak_sd else "magnetometer on"
 
     @property
     def heading_spread(self) -> float:
@@ -268,7 +267,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         # 3. Heading from the magnetometer, with disturbance rejection (VQF sec. 3.4).
         if mag is not None:
             self._correct_heading(q6, mag, dt)
-        self.flags.mag_unusable = s.mag_reason != "" or (s.mag_checked and s.mag_weight < p.mag_weak)
+        self.flags.mag_unusable = s.mag_reason != "" or (s.mag_checked and self.heading_spread > p.mag_weak_sd)
         s.q = normalize(mul(about_z(s.heading), q6))
         return s.q
 
@@ -553,10 +552,14 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         ``mag_window_t`` is 2 (1 - R), R the length of the window's mean vector
         (circular statistics: K. V. Mardia and P. E. Jupp, "Directional
         Statistics", 2000, sec. 2.3.1; about the variance for small spreads).
-        Treated as the measurement's noise variance, it scales the gain as a
-        Kalman filter's would (x-io Fusion rejects a field whose heading
-        innovation is large; this weighs it instead): 1 up to ``mag_head_sd``,
-        (mag_head_sd / spread)^2 beyond, never 0 (the spread is at most sqrt(2)).
+        Taken as the measurement's noise, it scales the gain as a steady-state
+        Kalman filter's: for a heading that drifts as a random walk of density q,
+        measured with noise of density R, the scalar Riccati equation
+        0 = q - P^2 / R gives P = sqrt(q R) and the gain P / R = sqrt(q / R)
+        (the Kalman-Bucy filter), which goes as 1 / spread: 1 up to
+        ``mag_head_sd``, mag_head_sd / spread beyond, never 0 (the spread is at
+        most sqrt(2)). (x-io Fusion rejects a field whose
+        heading innovation is large; this weighs it instead.)
         """
         s, p = self._state, self.params
         if s.t <= p.startup_t:
@@ -572,8 +575,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
                 a = 1.0
             s.win_head = (hx + a * (c - hx), hy + a * (sn - hy))
         spread = self.heading_spread
-        s.mag_weight = 1.0 if spread <= p.mag_head_sd else (p.mag_head_sd / spread) ** 2
-        return s.mag_weight
+        return 1.0 if spread <= p.mag_head_sd else p.mag_head_sd / spread
 
     def _field_undisturbed(self, norm: float, dip: float, dt: float) -> bool:
         """Magnetic disturbance test on the field's norm and dip angle (VQF sec. 3.4)."""
