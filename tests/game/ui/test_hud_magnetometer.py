@@ -1,4 +1,4 @@
-"""The HUD says when the board's filter has switched its magnetometer off (issue 12)."""
+"""The HUD says when the board's filter has switched its magnetometer off or found it weak (issue 12)."""
 
 import os
 
@@ -14,6 +14,7 @@ import pytest  # noqa: E402
 from game.body.controls import SampleInput  # noqa: E402
 from game.ui.app import App  # noqa: E402
 from game.ui.preferences import Preferences  # noqa: E402
+from tracker.fusion.default import MAG_WEAK  # noqa: E402
 
 WARNING = (255, 150, 120)
 RATE = 200.0
@@ -52,6 +53,19 @@ def test_the_hud_warns_of_a_switched_off_magnetometer(app):
     turn_the_board(source, (60.0, 30.0, 0.0))
     line = app.game.hud()["magnetometer"]
     assert line.startswith("magnetometer off: field strength changes as the board moves")
+
+
+def test_the_hud_says_a_field_that_turns_with_the_board_is_weak(app):
+    # Strength and dip stay the same, so the field is in use, but its heading swings +-20 deg as the
+    # board turns: weighed down, and the player is told.
+    from tests.tracker.test_fusion_default_robust import swinging
+    source = SampleInput()
+    app.game.use_source(source)
+    gyr, acc, mag = swinging(30.0, 20.0)
+    f = source.tracking.filter
+    for i in range(len(gyr)):
+        f.update(gyr[i], acc[i], mag[i], 1 / RATE)
+    assert app.game.hud()["magnetometer"] == MAG_WEAK
 
 
 def test_keyboard_play_has_no_magnetometer_line(app):
