@@ -156,9 +156,9 @@ static void measure_gyro_bias()
     }
 }
 
-static void init_imu()
+static void init_imu(uint32_t powered_ms)
 {
-    uint16_t found = imu_init(imu, state.rate_hz);
+    uint16_t found = imu_init(imu, state.rate_hz, powered_ms);
     errors = (uint16_t)((errors & ~(EB_ERR_IMU_MISSING | EB_ERR_MAG_MISSING)) | found);
     imu_ready = !(found & (EB_ERR_IMU_MISSING | EB_ERR_I2C_FAILURE));
     i2c_failures = 0;
@@ -166,7 +166,7 @@ static void init_imu()
 
 static void bring_up_imu()
 {
-    init_imu();
+    init_imu(0); /* at boot, or a second after it was lost: its start-up is long past */
     if (imu_ready)
         measure_gyro_bias();
 }
@@ -238,7 +238,8 @@ static bool read_sensors(Reading &r)
     r.flex_sum = finish_flex();
     PHASE_OFF(PHASE_READ);
     if (got == IMU_READ_RESET)
-        init_imu(); /* it lost power: configure it again (I2C_FAILURE is reported; the bias is kept) */
+        init_imu(millis()); /* it lost power, perhaps this very moment: wait for its start-up and
+                               configure it again (I2C_FAILURE is reported; the bias is kept) */
     return got == IMU_READ_OK;
 }
 

@@ -64,11 +64,12 @@ static bool read_regs(uint8_t addr, uint8_t reg, uint8_t *out, uint8_t n)
     return true;
 }
 
-/* WHO_AM_I, retried until the MPU's start-up time after power-up has passed. */
-static bool read_whoami(uint8_t *whoami)
+/* WHO_AM_I, retried until the MPU's start-up time after its power-up (at millis()
+ * powered_ms) has passed. */
+static bool read_whoami(uint8_t *whoami, uint32_t powered_ms)
 {
     while (!read_regs(MPU_ADDR, MPU_WHO_AM_I, whoami, 1)) {
-        if (millis() >= IMU_STARTUP_MS)
+        if (millis() - powered_ms >= IMU_STARTUP_MS)
             return false;
         delay(WHOAMI_RETRY_MS);
     }
@@ -115,12 +116,12 @@ static bool configure_ak(Imu &imu)
            ak_mode(AK_MODE_CONT2_16BIT);
 }
 
-uint16_t imu_init(Imu &imu, uint16_t rate_hz)
+uint16_t imu_init(Imu &imu, uint16_t rate_hz, uint32_t powered_ms)
 {
     imu.whoami = imu.mag_whoami = 0;
     imu.mag_seen = false;
     bus_begin();
-    if (!read_whoami(&imu.whoami) || !eb_imu_known(imu.whoami))
+    if (!read_whoami(&imu.whoami, powered_ms) || !eb_imu_known(imu.whoami))
         return EB_ERR_IMU_MISSING;
     if (!configure_mpu(rate_hz))
         return EB_ERR_I2C_FAILURE;

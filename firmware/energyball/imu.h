@@ -26,8 +26,10 @@ enum ImuRead {
 
 /* Identify and configure the IMU (and the AK8963 if present), after freeing and
  * starting the bus; returns error bits (EB_ERR_IMU_MISSING, EB_ERR_I2C_FAILURE,
- * EB_ERR_MAG_MISSING). */
-uint16_t imu_init(Imu &imu, uint16_t rate_hz);
+ * EB_ERR_MAG_MISSING). powered_ms: millis() when the IMU was last powered up (0 at
+ * boot, the time its reset was seen after a supply drop-out): WHO_AM_I is retried
+ * until the MPU's start-up time after it has passed. */
+uint16_t imu_init(Imu &imu, uint16_t rate_hz, uint32_t powered_ms);
 /* The digital low-pass filter for a sample rate (eb_dlpf_for_rate). */
 bool imu_set_rate(uint16_t rate_hz);
 /* Burst-read accelerometer and gyroscope counts, checked against a configuration

@@ -7,7 +7,7 @@
  *                [--speed X] [--reset-on-open | --no-reset-on-open]
  *                [--bootloader-ms MS] [--host-baud B] [--baud-error HOST[,AVR]] [--json]
  *                [--verbose] [--imu-startup-ms MS] [--reset-at S] [--stuck-sda]
- *                [--glitch T] [--hang-at S]
+ *                [--glitch T] [--glitch-in-read] [--hang-at S]
  *
  * The board (simavr 1.6, 16 MHz): a virtual MPU-9250 + AK8963 on the TWI
  * bus (imu.c), a flex voltage on ADC0 with AVCC = AREF = 5 V, UART0 bridged
@@ -109,6 +109,7 @@ typedef struct options {
 	double reset_at;  /* > 0: reset the AVR then (--stuck-sda: in the next MPU read byte) */
 	int stuck_sda;    /* resets land in an MPU read byte, and the MPU holds SDA low */
 	double glitch_at; /* > 0: the IMU's supply drops out and comes back then */
+	int glitch_in_read; /* --glitch lands in an MPU read byte */
 	double hang_at;   /* > 0: the CPU is sent into an endless loop then */
 	int no_reset_on_open;
 	double bootloader_ms;
@@ -166,6 +167,8 @@ static void usage(FILE *f)
 		"  --stuck-sda     the host's open and --reset-at reset the AVR in the middle of an\n"
 		"                  MPU read byte, so the MPU holds SDA low (the worst moment)\n"
 		"  --glitch T      the IMU's supply drops out at T seconds: registers to reset values\n"
+		"  --glitch-in-read  --glitch lands in the next MPU read byte (the worst moment: the\n"
+		"                  read that sees it comes before the MPU has started up again)\n"
 		"  --hang-at S     the CPU falls into an endless loop at S (only a watchdog gets out)\n");
 }
 
@@ -252,6 +255,7 @@ static void parse_options(int argc, char **argv, options_t *o)
 		{ "reset-at", required_argument, 0, 'r' },
 		{ "glitch", required_argument, 0, 'g' },
 		{ "stuck-sda", no_argument, 0, 'D' },
+		{ "glitch-in-read", no_argument, 0, 'G' },
 		{ "hang-at", required_argument, 0, 'H' },
 		{ "no-reset-on-open", no_argument, 0, 'R' },
 		{ "reset-on-open", no_argument, 0, 'O' },
@@ -335,6 +339,7 @@ static void parse_options(int argc, char **argv, options_t *o)
 		case 'r': parse_fault_time("--reset-at", optarg, &o->reset_at); break;
 		case 'g': parse_fault_time("--glitch", optarg, &o->glitch_at); break;
 		case 'D': o->stuck_sda = 1; break;
+		case 'G': o->glitch_in_read = 1; break;
 		case 'H': parse_fault_time("--hang-at", optarg, &o->hang_at); break;
 		case 'R': o->no_reset_on_open = 1; break;
 		case 'O': o->no_reset_on_open = 0; break;
@@ -396,6 +401,8 @@ typedef struct board {
 	reset_kind_t fault_reset_pending; /* reset after this instruction */
 	reset_kind_t reset_in_read;       /* --stuck-sda: a reset due at the next MPU read byte */
 	double reset_in_read_by;          /* or at this simulated time at the latest */
+	int glitch_in_read;               /* --glitch-in-read: a drop-out due at the next MPU read byte */
+	double glitch_in_read_by;         /* or at this simulated time at the latest */
 	uint64_t resets;          /* AVR resets after power-on (DTR, --reset-at, watchdog) */
 	recovery_t recovery;      /* each fault and the first good sample after it */
 	double read_start_s;      /* the newest read phase (D8) began then */
@@ -453,6 +460,15 @@ static void i2c_address(board_t *b, uint8_t addr8)
 	i2c_reply(b, TWI_COND_ACK, addr8, 1);
 }
 
+/* The IMU's supply drops out now (--glitch): every register to its reset value, and
+ * the start-up time again. */
+static void glitch_now(board_t *b, double now)
+{
+	b->glitch_in_read = 0;
+	recovery_event(&b->recovery, "glitch", now, 1);
+	imu_power_on(&b->imu, now);
+}
+
 /* Every message the TWI master puts on the bus. */
 static void i2c_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 {
@@ -486,6 +502,8 @@ static void i2c_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 			b->fault_reset_pending = b->reset_in_read; /* the MPU is sending: on_avr_reset */
 			b->reset_in_read = RESET_NONE;
 		}
+		if (b->glitch_in_read && b->i2c_target == MPU_ADDR)
+			glitch_now(b, sim_seconds(b)); /* this byte and the rest come from reset registers */
 		uint8_t v = imu_read(&b->imu, (uint8_t)b->i2c_target);
 		i2c_reply(b, TWI_COND_READ, m.u.twi.addr, v);
 	}
@@ -952,9 +970,15 @@ static void step_faults(board_t *b)
 	}
 	if (b->opt.glitch_at > 0 && now >= b->opt.glitch_at) {
 		b->opt.glitch_at = 0;
-		recovery_event(&b->recovery, "glitch", now, 1);
-		imu_power_on(&b->imu, now);
+		if (b->opt.glitch_in_read) {
+			b->glitch_in_read = 1;
+			b->glitch_in_read_by = now + RESET_IN_READ_WAIT_S;
+		} else {
+			glitch_now(b, now);
+		}
 	}
+	if (b->glitch_in_read && now >= b->glitch_in_read_by) /* no MPU read came */
+		glitch_now(b, now);
 	if (b->opt.hang_at > 0 && now >= b->opt.hang_at) {
 		b->opt.hang_at = 0;
 		recovery_event(&b->recovery, "hang", now, 1);
