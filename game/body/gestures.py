@@ -88,6 +88,13 @@ halfway through its wave when it passes flex-on, and the arm may be moving
 by then; a window ending at the release (rather than a search back over the
 whole spin) keeps a player who relaxed from 90 to 60 deg and held there
 aiming with where the arm pointed at the end of that hold, not seconds ago.
+That sample is already some way into the straightening (a typical 90-120 deg
+wave of 0.12-0.25 s, minimum-jerk, loses its first 8 deg in 23-52 ms), and
+the straightening's onset kicks the board on the soft tissue under the strap
+(a damped rocking of 5-25 Hz, :mod:`game.sim.motion_model`): the aim is the
+pointing ``aim_lead_s`` before it, while the board still sat on the held arm,
+carried forward to that sample by the arm's mean turn over the ``aim_trend_s``
+before (an arm sweeping after a target keeps its sweep; a held one, its aim).
 The history the aim needs is bounded (``history_s``, at most
 ``HISTORY_MAX_SAMPLES`` samples).
 
@@ -125,7 +132,8 @@ class GestureState(str, Enum):
 
 
 _ANGLES = ("raise_deg", "lower_deg", "flex_on_deg", "flex_off_deg", "aim_tolerance_deg")
-_TIMES = ("raise_dwell_s", "lower_dwell_s", "flex_dwell_s", "min_spin_s", "aim_lookback_s")
+_TIMES = ("raise_dwell_s", "lower_dwell_s", "flex_dwell_s", "min_spin_s", "aim_lookback_s", "aim_lead_s",
+          "aim_trend_s")
 _POSITIVE_TIMES = ("charge_s", "rise_s", "history_s", "wave_window_s")
 
 
@@ -171,6 +179,12 @@ class GestureSettings:
       reaches flex-on in 0.17 s).
       ``aim_tolerance_deg`` 8: flex jitter tolerated when finding the start of
       the straightening (above the +-3 deg of a typical flex sensor).
+      ``aim_lead_s`` 0.05: how long before that sample the aim is taken (the
+      time a typical wave takes to lose the tolerance, module doc "Aim"): the
+      board rocks on the soft tissue from the straightening's onset on.
+      ``aim_trend_s`` 0.2: over how long the arm's sweep before that is
+      measured to carry the aim forward (long enough to average a 3-12 Hz
+      tremor's swing out).
       ``history_s`` 1.0: how much of the past the machine keeps for the aim;
       at least ``aim_lookback_s + max_straighten_s + flex_dwell_s`` (when
       ``max_straighten_s`` is finite), so the window is still there at the launch.
@@ -194,6 +208,8 @@ class GestureSettings:
     max_straighten_s: float = 0.4
     aim_lookback_s: float = 0.25
     aim_tolerance_deg: float = 8.0
+    aim_lead_s: float = 0.05
+    aim_trend_s: float = 0.2
     history_s: float = 1.0
     rise_s: float = 0.4
 
@@ -348,6 +364,28 @@ def straightening_start(history: Iterable[Sample], release: Sample, lookback_s: 
     return next(s for s in reversed(window) if s.flex >= peak - tolerance_deg)
 
 
+def held_pointing(history: Sequence[Sample], start: Sample, lead_s: float, trend_s: float) -> Vec3:
+    """Where the arm pointed at ``start`` as it was held before the straightening (module doc "Aim").
+
+    The sample ``a`` latest at or before ``start.t - lead_s`` (the oldest the history
+    still holds if none is: a short ``history_s`` shortens the lead and the trend),
+    carried forward linearly to ``start.t`` by the pointing's mean change from the
+    sample latest at or before ``a.t - trend_s`` to ``a``, and normalised.
+    """
+    def at(t: float, fallback: Sample) -> Sample:
+        older = [s for s in history if s.t <= t]
+        return older[-1] if older else history[0] if history else fallback
+
+    a = at(start.t - lead_s, start)
+    b = at(a.t - trend_s, a)
+    if a.t <= b.t:
+        return a.pointing
+    k = (start.t - a.t) / (a.t - b.t)
+    x, y, z = (p + k * (p - q) for p, q in zip(a.pointing, b.pointing))
+    norm = math.sqrt(x * x + y * y + z * z)
+    return (x / norm, y / norm, z / norm) if norm > 1e-9 else a.pointing
+
+
 def extending_fast(history: Sequence[Sample], window_s: float, speed_dps: float) -> bool:
     """Whether every step of the flex in the last ``window_s`` of ``history`` straightened at ``speed_dps`` or faster.
 
@@ -491,4 +529,5 @@ class GestureMachine:
             m.rise_start = -math.inf  # the ball is already up
             return [self._enter(GestureState.LOADING, "load")]
         start = straightening_start(m.history, release, s.aim_lookback_s, s.aim_tolerance_deg)
-        return [self._enter(GestureState.FIRED, "launch", start.pointing, self._charge(spin_s))]
+        aim = held_pointing(m.history, start, s.aim_lead_s, s.aim_trend_s)
+        return [self._enter(GestureState.FIRED, "launch", aim, self._charge(spin_s))]
