@@ -481,7 +481,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         err = (math.atan2(mx, my) - s.heading + math.pi) % (2 * math.pi) - math.pi
         self._judge_field(q6, norm, dip, dt)
         weight = self._heading_weight(err, dt)
-        if s.mag_reason or not self._field_undisturbed(norm, dip, dt) or (s.t > p.startup_t and not s.mag_checked):
+        if s.mag_reason or not self._field_undisturbed(norm, dip, dt):
             self.flags.mag_rejected = True
             return
         # On probation (its first mag_on_t of use) the field turns the heading more slowly, and
@@ -489,11 +489,33 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         k = dt * weight / (p.tau_mag if s.mag_use_t > p.mag_on_t else p.tau_mag_probation)
         if s.t <= p.startup_t:
             k = max(k, 1.0 / s.mag_samples)  # fast start: plain average of the first second
+        elif not s.mag_checked:
+            k = self._settle_heading(weight, err, dt)
         else:
             b = s.bias
             self._learn_bias_from_heading(q6, k * err / dt, weight, dt)
             self._remember_field(k * err, (s.bias[0] - b[0], s.bias[1] - b[1], s.bias[2] - b[2]), dt)
         s.heading = (s.heading + k * err + math.pi) % (2 * math.pi) - math.pi
+
+    def _settle_heading(self, weight: float, err: float, dt: float) -> float:
+        """The heading's gain until the field's first check (of a field never found bad), ``weight``
+        its heading's (:meth:`_heading_weight`).
+
+        The first second's average set the heading in a 6D frame whose
+        inclination was the start's mean of the accelerometer, which carries what
+        a tremor's acceleration did not average out; a tilt turns the field's
+        vertical part into its heading (by the dip's tangent). So until its check
+        the field keeps the heading in step with the inclination as that settles
+        over ``tau_acc``, weighed by its heading's spread, and the heading has
+        settled before the game's wearing calibration rather than turning after
+        it. A field whose heading spreads beyond ``mag_weak_sd`` (or found bad)
+        settles nothing meanwhile; what it settled stays, since taking it back
+        would turn the heading after a wearing calibration that saw it. Nothing
+        is taught to the bias.
+        """
+        s, p = self._state, self.params
+        self.flags.mag_rejected = True  # (its check is still to come: not in use)
+        return 0.0 if self.heading_spread > p.mag_weak_sd else dt * weight / p.tau_acc
 
     def _remember_field(self, turn: float, db: Vec, dt: float) -> None:
         """What a field taught (heading turn, bias change) in its first ``mag_on_t`` of use:
