@@ -57,13 +57,14 @@ Two things hold up on a real player with a real board:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from mypy_extensions import mypyc_attr
 
 from ..calibration import RestDetector, RestParams
 from ..lowpass import LowPass2
 from .base import Filter
+from .start import StartMean
 from .qmath import IDENTITY, Quat, Vec, about_z, from_rotvec, integrate, mul, normalize, rotate, tilt_to_up
 
 GRAVITY = 9.81
@@ -183,8 +184,7 @@ class DefaultState:
     drift_p: Sym3 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # the drift's covariance, in bias_p's units per s^2
     cross_p: Mat3 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # bias-drift covariance, row i bias_i
     t: float = 0.0  # time since start
-    acc_mean: Vec = (0.0, 0.0, 0.0)  # the accelerometer in I averaged over the start-up ...
-    acc_n: int = 0  # ... of this many samples
+    start: StartMean = field(default_factory=StartMean)  # the accelerometer in I over the start-up
     mag_norm: float = 0.0  # reference field norm (uT), 0 until known
     mag_dip: float = 0.0  # reference dip angle (rad)
     mag_samples: int = 0  # undisturbed magnetometer samples used so far
@@ -251,10 +251,11 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
             self._detect_rest(gyr, acc, dt)
         # 1. Strapdown integration of the bias-corrected rate (VQF sec. 3.1).
         b = s.bias
-        s.q_gyr = normalize(integrate(s.q_gyr, (gyr[0] - b[0], gyr[1] - b[1], gyr[2] - b[2]), dt))
+        w = (gyr[0] - b[0], gyr[1] - b[1], gyr[2] - b[2])
+        s.q_gyr = normalize(integrate(s.q_gyr, w, dt))
         # 2. Inclination from the accelerometer low-passed in frame I (VQF sec. 3.2),
         #    and the bias from the correction while in motion (VQF sec. 3.3, Mahony eq. 32).
-        tilt = self._correct_inclination(acc, dt) if acc is not None else None
+        tilt = self._correct_inclination(acc, w, dt) if acc is not None else None
         q6 = mul(s.q_inc, s.q_gyr)
         if tilt is not None and not self.flags.rest and s.t > p.startup_t:
             # The correction, summed over BIAS_EVERY samples, teaches the bias (a 3 s loop needs no more).
@@ -404,22 +405,22 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
 
     # ------------------------------------------------------------ inclination
 
-    def _correct_inclination(self, acc: Vec, dt: float) -> tuple[float, float] | None:
+    def _correct_inclination(self, acc: Vec, w: Vec, dt: float) -> tuple[float, float] | None:
         """Turn q_inc so the low-passed accelerometer points up; the turn's (x, y) rotation vector.
 
-        ``dt``: the time since the last sample (several periods after lost ones, which
-        the low-pass takes as this sample held: :meth:`LowPass2.step`). None while there
-        is no gravity yet.
+        ``w``: the bias-corrected rate (rad/s, sensor frame), which ends the start-up's
+        mean (:class:`StartMean`). ``dt``: the time since the last sample (several periods
+        after lost ones, which the low-pass takes as this sample held: :meth:`LowPass2.step`).
+        None while there is no gravity yet.
         """
         s = self._state
         a_i = rotate(s.q_gyr, acc)
-        if s.t <= self.params.startup_t:  # fast start: the plain mean, which a tremor does not tilt
-            s.acc_n += 1
-            (mx, my, mz), k = s.acc_mean, 1.0 / s.acc_n
-            a_i = s.acc_mean = (mx + k * (a_i[0] - mx), my + k * (a_i[1] - my), mz + k * (a_i[2] - mz))
+        if s.t <= self.params.startup_t:  # fast start: the plain mean, ended where the board's swing is undone
+            a_i = s.start.add(a_i, rotate(s.q_gyr, w), s.t, self.params.startup_t)
         else:
-            if not s.acc_lp.primed and s.acc_n:
-                s.acc_lp.step(s.acc_mean, dt)  # the low-pass starts settled at the start-up mean
+            g = s.start.gravity
+            if not s.acc_lp.primed and g is not None:
+                s.acc_lp.step(g, dt)  # the low-pass starts settled at the start-up's gravity (StartMean)
             a_i = s.acc_lp.step(a_i, dt)
         ax, ay, az = rotate(s.q_inc, a_i)
         n = math.sqrt(ax * ax + ay * ay + az * az)
