@@ -7,7 +7,9 @@ tracker; fused samples (the board's own estimate, the paper's mode) pass
 straight through. The "hold still" step of the wearing calibration gives the
 filter its gyro bias here, and the first sample after a start tells it the
 board's age (device time starts at power-up), so a board still warming up has
-its bias's drift learned from the start.
+its bias's drift learned from the start. After each wearing calibration
+(:meth:`Tracking.anchor_heading`) the pose keeps the calibration's "forward"
+while the magnetometer's heading settles (:mod:`game.body.heading_anchor`).
 """
 
 from __future__ import annotations
@@ -22,8 +24,9 @@ from tracker.calibration import BiasResult, BoardCalibration, startup_bias
 from tracker.flex import FlexCalibration, FlexTracker
 from tracker.fusion.base import Filter
 from tracker.fusion.default import DefaultFilter
-from tracker.fusion.qmath import as_vec
+from tracker.fusion.qmath import about_z, as_vec, mul
 
+from .heading_anchor import HeadingAnchor
 from .pose import ArmPose
 
 MAX_GAP_S = 0.5  # a longer gap in device time (link loss) restarts the time base
@@ -38,6 +41,7 @@ class Tracking:
     flex_calibration: FlexCalibration | None = None
     filter: Filter = field(default_factory=DefaultFilter)  # another (tracker.fusion.make) to compare
     flex: FlexTracker = field(init=False)
+    anchor: HeadingAnchor = field(default_factory=HeadingAnchor)  # "forward" as the field's heading settles
     _last_t: float | None = None
     _dt: float = 0.005
 
@@ -48,7 +52,14 @@ class Tracking:
         """Start over (a new board, or the board restarted)."""
         self.filter.reset()
         self.flex.reset()
+        self.anchor = HeadingAnchor()
         self._last_t = None
+
+    def anchor_heading(self) -> None:
+        """The wearing calibration took "forward" from the pose just given: from now on the
+        turns of the magnetometer's heading that settle the start's error leave it (HeadingAnchor)."""
+        if isinstance(self.filter, DefaultFilter) and self._last_t is not None:
+            self.anchor.set(self._last_t, self.filter.heading, self.filter.heading_spread)
 
     def feed(self, sample: P.RawSample | P.FusedSample) -> ArmPose:
         """The arm pose after one sample."""
@@ -60,6 +71,8 @@ class Tracking:
         dt = self._step(t)
         acc, gyr, mag = self.board.apply(sample)
         q = self.filter.update(gyr, acc, mag if self.use_magnetometer else None, dt)
+        if self.anchor.t0 is not None and isinstance(self.filter, DefaultFilter):
+            q = mul(about_z(-self.anchor.follow(t, self.filter.heading)), q)
         return ArmPose(q, self.flex.update(sample.flex_adc, t).deg, t)
 
     def _step(self, t: float) -> float:

@@ -98,6 +98,8 @@ class Rescorer:
                 pose = self.tracking.feed(s)
         if pose is None:
             return None
+        if game.avatar.wearing is not self.avatar.wearing:  # the game took "forward" again
+            self.tracking.anchor_heading()
         self.avatar.body, self.avatar.wearing = game.avatar.body, game.avatar.wearing
         self.avatar.position, self.avatar.body_yaw = game.avatar.position, game.avatar.body_yaw
         return self.avatar.update(pose)

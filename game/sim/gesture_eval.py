@@ -138,6 +138,7 @@ def run_trial(profile: PlayerProfile, seed: int, gestures: int = 10, magnetomete
                 result.calibration = "; ".join(said + [bias.message, outcome.message])
                 result.calibration_ok = maker_problem is None and bias.ok and outcome.ok
                 avatar.wearing = outcome.wearing
+                tracking.anchor_heading()
                 calibrated = True
             continue
         launches += [e for e in machine.update(avatar.update(pose)) if e.kind == "launch"]

@@ -112,6 +112,13 @@ class Game:
                 return pose
         return self.keyboard.update(dt)
 
+    def wear(self, wearing: Wearing) -> None:
+        """Put on what a wearing calibration or a recenter found; its "forward" is kept while
+        the magnetometer's heading settles (game.body.heading_anchor)."""
+        self.avatar.wearing = wearing
+        if self.tracker:
+            self.tracker.tracking.anchor_heading()
+
     def use_board(self, port: str | None, virtual: bool = False) -> None:
         """Switch to a board (a port, or a virtual one) read in the background (a replay's
         ``board_opener`` gives the recorded one instead)."""
@@ -368,7 +375,7 @@ class Calibration:
                 game.log.hold("down", result, bias)
             if not result.ok:
                 return self.fail(result.message)
-            game.avatar.wearing = result.wearing
+            game.wear(result.wearing)
             self.step, self.clock = "forward", -GET_READY_S
             game.audio.play("click")
             return None
@@ -377,7 +384,7 @@ class Calibration:
             game.log.hold("forward", result, None)
         if not result.ok:
             return self.fail(result.message)
-        game.avatar.wearing = result.wearing
+        game.wear(result.wearing)
         game.calibrated = True
         later = "" if self.bias_learned else " (the gyroscope's bias is learned as you play)"
         self.step, self.message = "done", f"Calibrated{later}! Press Enter."
@@ -413,7 +420,7 @@ class Play:
             if event.key == pygame.K_F1:
                 game.show_plots = not game.show_plots
             if event.key == pygame.K_c and game.tracker:
-                game.avatar.wearing = recenter(game.avatar, game.pose(0.0))
+                game.wear(recenter(game.avatar, game.pose(0.0)))
             if event.key == pygame.K_b and game.board_offer:
                 game.use_board(game.board_offer)
                 game.board_offer = None

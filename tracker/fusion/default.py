@@ -236,6 +236,11 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         return MAG_WEAK if self.heading_spread > self.params.mag_weak_sd else "magnetometer on"
 
     @property
+    def heading(self) -> float:
+        """The heading's turn about world z (rad): what the magnetometer has turned so far."""
+        return self._state.heading
+
+    @property
     def heading_spread(self) -> float:
         """How the field's heading has spread against the gyroscope's over the last
         ``mag_window_t`` (rad, a standard deviation; :meth:`_heading_weight`)."""

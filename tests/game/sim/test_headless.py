@@ -175,10 +175,13 @@ def test_samples_computed_ahead_are_redone_when_the_motion_changes():
 
 
 def test_an_endless_match_lasts_its_duration_where_a_normal_one_ends():
-    # The premise: a hard match long enough to be lost well before its end
-    # (seed 0 fell at 211 s of 300 when this was written; a seed lost near the
-    # end would turn into a win with any small change of the bot's aim).
-    normal = run_match(MatchConfig(seed=0, difficulty="hard", duration_s=300.0))
-    endless = run_match(MatchConfig(seed=0, difficulty="hard", duration_s=300.0, endless=True))
-    assert normal["game_over"] and normal["survived_s"] < 300.0
-    assert not endless["game_over"] and endless["survived_s"] == pytest.approx(300.0, abs=0.02)
+    # The premise: a hard match that is lost. Which seed loses, and when, moves with every
+    # improvement of the bot's aim, so the first of a few seeds lost within 15 minutes is taken
+    # (when this was written seed 0 fell at 364 s, seed 2 at 218 s; seed 1 lasted 900 s).
+    normal = next(r for r in (run_match(MatchConfig(seed=seed, difficulty="hard", duration_s=900.0))
+                              for seed in (0, 2, 3, 4)) if r["game_over"])
+    assert normal["survived_s"] < 900.0
+    # The same match, endless, runs on past the moment the normal one was lost.
+    duration = normal["survived_s"] + 10.0
+    endless = run_match(MatchConfig(seed=normal["seed"], difficulty="hard", duration_s=duration, endless=True))
+    assert not endless["game_over"] and endless["survived_s"] == pytest.approx(duration, abs=0.02)

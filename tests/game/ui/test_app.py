@@ -238,7 +238,9 @@ class _ShakyHoldTracker:
         hanging = ArmPose((1.0, 0.0, 0.0, 0.0), 0.0, 0.0)
         self.recent = [P.RawSample(0.0, 0, 0, (0, 0, 2048), (0, 0, 0), None, 390, 16, 2000)]
         refused = BiasResult(False, "the arm turned about the vertical", np.zeros(3), np.zeros(3), 2.0)
-        self.tracking = SimpleNamespace(hold_still=lambda hold: (refused, [hanging] * 50))
+        self.anchored = 0  # wearings put on (each keeps its "forward" as the field settles)
+        self.tracking = SimpleNamespace(hold_still=lambda hold: (refused, [hanging] * 50),
+                                        anchor_heading=lambda: setattr(self, "anchored", self.anchored + 1))
         self.forward = False
         self._hanging = hanging
         self.error, self.connected, self.status = None, True, "streaming"
@@ -271,3 +273,4 @@ def test_a_hold_too_shaky_for_the_bias_still_calibrates_and_says_the_bias_is_lea
     frames(app, 2.0 + 2.1)
     assert screen.step == "done", screen.message
     assert "learned as you play" in screen.message
+    assert tracker.anchored == 2  # the arm-down wearing, then the forward one

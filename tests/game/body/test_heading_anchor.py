@@ -1,0 +1,69 @@
+"""The wearing calibration's "forward" kept while the magnetometer's heading settles
+(game/body/heading_anchor.py, issue 12: a disturbed magnetometer never makes the pose worse than none)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from game.body.heading_anchor import GYRO_HEADING_SD, HeadingAnchor
+from game.body.tracking import Tracking
+from game.sim.gesture_eval import run_trial
+from game.sim.motion_model import PlayerProfile
+
+DEG = math.pi / 180
+
+
+def test_each_turn_moves_forward_by_the_fixed_point_smoothers_share():
+    # Worked by hand: the heading was taken from a field spreading by 5 deg (p0 = 25 deg^2) and the
+    # gyroscope strays by s = 0.4 deg/s, so a turn t seconds later counts 25 / (25 + (0.4 t)^2).
+    assert GYRO_HEADING_SD == pytest.approx(0.4 * DEG)
+    anchor = HeadingAnchor()
+    assert anchor.follow(1.0, 0.3) == 0.0  # no calibration yet: nothing is taken off
+    anchor.set(10.0, 0.3, 5 * DEG)
+    assert anchor.follow(10.0, 0.3 + 10 * DEG) == pytest.approx(10 * DEG)  # at once: all of it
+    assert anchor.follow(22.5, 0.3 + 14 * DEG) == pytest.approx(12 * DEG)  # s t = 5 deg: half of 4
+    far = anchor.follow(135.0, 0.3 + 24 * DEG)  # s t = 50 deg: 25 / 2525 of 10
+    assert far == pytest.approx(12 * DEG + 10 * DEG * 25 / 2525)
+    # Turns wrap: from +179 deg to -179 deg is a turn of 2 deg, not -358.
+    anchor.set(0.0, math.radians(179.0), 5 * DEG)
+    assert anchor.follow(0.0, math.radians(-179.0)) - far == pytest.approx(2 * DEG)
+
+
+def test_a_calibration_from_a_clean_field_lets_every_turn_through():
+    anchor = HeadingAnchor()
+    anchor.set(0.0, 0.0, 0.0)  # a field that did not spread: its heading was right
+    assert anchor.follow(1.0, 5 * DEG) == 0.0
+
+
+def test_a_restart_forgets_forward():
+    tracking = Tracking()
+    tracking.anchor.set(1.0, 0.0, 5 * DEG)
+    tracking.reset()
+    assert tracking.anchor.t0 is None
+
+
+# A player drawn within the issue's ranges whose 9D aim was off by up to 6.8 deg in a session
+# (sessions 0-7): a 2 deg tremor at 5.9 Hz, 3 deg sway, a 7.75 uT disturbance turning the
+# heading the calibration took by up to 12 deg; 6D loses it to the vertical bias (8.7 deg).
+DRAWN = PlayerProfile(gyro_bias_dps=9.81, tremor_deg=1.97, tremor_hz=5.87, sway_deg=3.15, wobble_deg=5.22,
+                      wobble_hz=12.82, twist_follow=0.66, slip_deg_per_min=1.49, flex_hysteresis_pct=1.28,
+                      flex_creep_pct=5.75, gyro_warmup_dps=0.97, mag_hard_iron_ut=51.43, mag_soft_iron_pct=3.69,
+                      mag_disturbance_ut=7.75, speed=2.53, noise_scale=1.13)
+
+
+def session_medians(anchored: bool, monkeypatch) -> list[float]:
+    if not anchored:
+        monkeypatch.setattr(Tracking, "anchor_heading", lambda self: None)
+    medians = [float(np.median(run_trial(DRAWN, seed, 10, True).aim_errors_deg)) for seed in range(8)]
+    monkeypatch.undo()
+    return medians
+
+
+def test_forward_stays_where_the_calibration_saw_it_while_the_field_settles(monkeypatch):
+    kept = session_medians(True, monkeypatch)
+    free = session_medians(False, monkeypatch)
+    assert max(free) > 4.5, free  # the premise: the settling heading moved forward
+    assert max(kept) <= 3.0, kept  # the issue's median target, in every session
