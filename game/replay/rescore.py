@@ -66,6 +66,7 @@ class Rescorer:
         self.game_track, self.other_track = Track(), Track()
         self._board: object = None
         self._last_t: float | None = None
+        self._anchored: float | None = None  # when the game's tracking last took "forward"
         self.samples = 0  # fed to the other filter
 
     def frame(self, game, polls: list[list[S.Sample]], gestures: list[list]) -> None:
@@ -98,7 +99,9 @@ class Rescorer:
                 pose = self.tracking.feed(s)
         if pose is None:
             return None
-        if game.avatar.wearing is not self.avatar.wearing:  # the game took "forward" again
+        taken = source.tracking.anchor.t0
+        if taken is not None and taken != self._anchored:  # the game took "forward" again
+            self._anchored = taken
             self.tracking.anchor_heading()
         self.avatar.body, self.avatar.wearing = game.avatar.body, game.avatar.wearing
         self.avatar.position, self.avatar.body_yaw = game.avatar.position, game.avatar.body_yaw

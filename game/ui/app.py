@@ -113,7 +113,7 @@ class Game:
         return self.keyboard.update(dt)
 
     def wear(self, wearing: Wearing) -> None:
-        """Put on what a wearing calibration or a recenter found; its "forward" is kept while
+        """Put on the "forward" a wearing calibration or a recenter found; it is kept while
         the magnetometer's heading settles (game.body.heading_anchor)."""
         self.avatar.wearing = wearing
         if self.tracker:
@@ -375,7 +375,7 @@ class Calibration:
                 game.log.hold("down", result, bias)
             if not result.ok:
                 return self.fail(result.message)
-            game.wear(result.wearing)
+            game.avatar.wearing = result.wearing  # the arm's axis only: "forward" comes next
             self.step, self.clock = "forward", -GET_READY_S
             game.audio.play("click")
             return None
