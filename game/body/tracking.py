@@ -7,9 +7,9 @@ tracker; fused samples (the board's own estimate, the paper's mode) pass
 straight through. The "hold still" step of the wearing calibration gives the
 filter its gyro bias here, and the first sample after a start tells it the
 board's age (device time starts at power-up), so a board still warming up has
-its bias's drift learned from the start. After each wearing calibration
-(:meth:`Tracking.anchor_heading`) the pose keeps the calibration's "forward"
-while the magnetometer's heading settles (:mod:`game.body.heading_anchor`).
+its bias's drift learned from the start. Once the wearing calibration or a
+recenter has taken "forward" (:meth:`Tracking.anchor_heading`), the pose keeps
+it while the magnetometer's heading settles (:mod:`game.body.heading_anchor`).
 """
 
 from __future__ import annotations

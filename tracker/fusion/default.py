@@ -64,8 +64,8 @@ from mypy_extensions import mypyc_attr
 from ..calibration import RestDetector, RestParams
 from ..lowpass import LowPass2
 from .base import Filter
-from .start import StartMean
 from .qmath import IDENTITY, Quat, Vec, about_z, from_rotvec, integrate, mul, normalize, rotate, tilt_to_up
+from .start import StartMean
 
 GRAVITY = 9.81
 BIAS_EVERY = 4  # samples per update of the bias in motion
