@@ -40,6 +40,7 @@ DURATION = Ranged(float, 0, 86_400, above=True)  # a match of up to a day of pla
 WORKERS = Ranged(int, 1, 64)
 TRIALS = Ranged(int, 1, 10_000)
 GESTURES = Ranged(int, 1, 1_000)
+DRAWN = Ranged(int, 1, 1_000)
 SPEED = Ranged(float, 0.25, 8.0)
 FROM = Ranged(float, 0.0, 86_400.0)
 
@@ -287,13 +288,19 @@ def envelope_table(players: dict[str, dict]) -> str:
 
 def cmd_gestures_eval(args: argparse.Namespace) -> int:
     from .sim.gesture_eval import evaluate, evaluate_envelope
-    from .sim.motion_model import catalogue
+    from .sim.motion_model import catalogue, drawn_players
     progress = lambda text: print(text, file=sys.stderr, flush=True)  # noqa: E731
-    if args.envelope and getattr(args, "profile", None):
-        raise UsageError("--envelope runs every catalogue player; --profile runs one: give one of them")
-    if args.envelope:
-        report = evaluate_envelope(catalogue(), args.trials, args.seed, args.gestures, progress,
+    given = [name for name, on in (("--envelope", args.envelope), ("--drawn", args.drawn),
+                                   ("--profile", getattr(args, "profile", None))) if on]
+    if len(given) > 1:
+        raise UsageError(f"{' and '.join(given)} each choose the players: give one of them")
+    if args.envelope or args.drawn:
+        players = drawn_players(args.drawn, args.seed) if args.drawn else catalogue()
+        report = evaluate_envelope(players, args.trials, args.seed, args.gestures, progress,
                                    magnetometer=args.dof == 9)
+        if args.drawn:  # each drawn player's values, to run one again with --profile
+            for name, row in report["players"].items():
+                row["profile"] = players[name].to_json()
         print(json.dumps(report) if args.json else envelope_table(report["players"]))
         return 0
     report = evaluate(_profile(args.profile), args.trials, args.seed, args.gestures, progress,
@@ -349,6 +356,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the simulated player (README lists the keys)")
     p.add_argument("--envelope", action="store_true",
                    help="run every player of the catalogue (game/profiles), one row each")
+    p.add_argument("--drawn", type=DRAWN, default=0, metavar="N",
+                   help=f"run N players drawn uniformly within the ranges (README), one row each, {DRAWN.text}")
     p.add_argument("--dof", type=int, choices=(6, 9), default=9,
                    help="9: fuse the magnetometer, as the game does (9); 6: without it")
     p.add_argument("--json", action="store_true", default=argparse.SUPPRESS)

@@ -257,6 +257,26 @@ def catalogue(folder: str | os.PathLike = PROFILES_DIR) -> dict[str, PlayerProfi
     return {name: PlayerProfile.load(os.path.join(folder, name + ".json")) for name in names}
 
 
+# The keys a drawn player varies: the harsh world's (issue 12's table) over their whole ranges, the
+# board's bias over its range, and speed and noise over the span where every hold can be judged
+# (at the slowest speed some holds run out of the game's time: README, "Headless matches").
+DRAWN_SPANS: dict[str, tuple[float, float]] = {
+    **{key: _RANGES[key][:2] for key in (
+        "tremor_deg", "tremor_hz", "sway_deg", "wobble_deg", "wobble_hz", "twist_follow", "slip_deg_per_min",
+        "flex_hysteresis_pct", "flex_creep_pct", "gyro_warmup_dps", "mag_hard_iron_ut", "mag_soft_iron_pct",
+        "mag_disturbance_ut", "gyro_bias_dps")},
+    "speed": (0.5, 3.0), "noise_scale": (0.5, 2.0)}
+
+
+def drawn_players(count: int, seed: int) -> dict[str, PlayerProfile]:
+    """``count`` players drawn uniformly within :data:`DRAWN_SPANS` (the other keys the typical
+    player's), named ``drawn-<seed>-<k>``: players between the catalogue's."""
+    rng = np.random.default_rng(seed)
+    return {f"drawn-{seed}-{k}": PlayerProfile(**{key: round(float(rng.uniform(lo, hi)), 3)
+                                                   for key, (lo, hi) in DRAWN_SPANS.items()})
+            for k in range(count)}
+
+
 def catalogue_descriptions(index: str | os.PathLike = CATALOGUE_INDEX) -> dict[str, str]:
     """Each catalogue player's one-line description, from the rows ``| `name` | text |`` of
     the catalogue's index (``profiles/README.md``), by name."""

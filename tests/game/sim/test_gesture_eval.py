@@ -148,6 +148,38 @@ def test_envelope_and_profile_do_not_go_together(tmp_path):
     assert "--envelope" in r.stderr and len(r.stderr.strip().splitlines()) == 1
 
 
+def test_drawn_players_span_the_ranges_and_come_back_from_their_seed():
+    from game.sim.motion_model import _RANGES, DRAWN_SPANS, drawn_players
+
+    players = drawn_players(200, seed=5)
+    assert drawn_players(200, seed=5) == players and drawn_players(200, seed=6) != players
+    for key, (lo, hi) in DRAWN_SPANS.items():
+        values = np.array([getattr(p, key) for p in players.values()])
+        assert _RANGES[key][0] <= lo and hi <= _RANGES[key][1]  # every drawn profile is a valid one
+        assert values.min() >= lo and values.max() <= hi
+        assert np.ptp(values) > 0.9 * (hi - lo)  # 200 uniform draws reach both ends of the span
+
+
+def test_a_drawn_player_runs_again_from_its_own_profile(tmp_path):
+    r = energyball("gestures-eval", "--drawn", "2", "--trials", "1", "--gestures", "3", "--seed", "4", "--json")
+    assert r.returncode == 0, r.stderr
+    rows = json.loads(r.stdout)["players"]
+    assert list(rows) == ["drawn-4-0", "drawn-4-1"]
+    row = rows["drawn-4-1"]
+    path = tmp_path / "drawn.json"
+    path.write_text(json.dumps(row.pop("profile")))
+    again = energyball("gestures-eval", "--profile", str(path), "--trials", "1", "--gestures", "3", "--seed", "4",
+                       "--json")
+    assert again.returncode == 0, again.stderr
+    assert json.loads(again.stdout) == row
+
+
+def test_drawn_players_and_the_envelope_do_not_go_together():
+    r = energyball("gestures-eval", "--drawn", "3", "--envelope")
+    assert r.returncode == 1 and "Traceback" not in r.stderr
+    assert "--drawn" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
 @pytest.mark.parametrize("name", ["typical", "magnetic_room"])
 def test_the_simulated_maker_recovers_the_boards_own_errors(name):
     from game.sim.gesture_eval import maker_calibration
