@@ -72,7 +72,9 @@ class Tracking:
         acc, gyr, mag = self.board.apply(sample)
         q = self.filter.update(gyr, acc, mag if self.use_magnetometer else None, dt)
         if self.anchor.t0 is not None and isinstance(self.filter, DefaultFilter):
-            q = mul(about_z(-self.anchor.follow(t, self.filter.heading)), q)
+            offset = self.anchor.follow(t, self.filter.heading)
+            if offset:  # a clean field (or none) leaves it 0: no turn to compose per sample
+                q = mul(about_z(-offset), q)
         return ArmPose(q, self.flex.update(sample.flex_adc, t).deg, t)
 
     def _step(self, t: float) -> float:
