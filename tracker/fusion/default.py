@@ -423,9 +423,10 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         if s.t <= self.params.startup_t:  # fast start: the plain mean, ended where the board's swing is undone
             a_i = s.start.add(a_i, rotate(s.q_gyr, w), s.t, self.params.startup_t)
         else:
-            g = s.start.gravity
-            if not s.acc_lp.primed and g is not None:
-                s.acc_lp.step(g, dt)  # the low-pass starts settled at the start-up's gravity (StartMean)
+            if not s.acc_lp.primed:
+                g = s.start.gravity
+                if g is not None:
+                    s.acc_lp.step(g, dt)  # the low-pass starts settled at the start-up's gravity (StartMean)
             a_i = s.acc_lp.step(a_i, dt)
         ax, ay, az = rotate(s.q_inc, a_i)
         n = math.sqrt(ax * ax + ay * ay + az * az)
