@@ -1,10 +1,11 @@
 /* EnergyBall arm tracker firmware: Adafruit Metro Mini (ATmega328P, 16 MHz), an
  * MPU-9250 on I2C and a flex sensor through an op-amp on A0 (Zhu & Shi,
  * "Motion Control in VR", sec. 4), streaming the wire protocol of
- * firmware/PROTOCOL.md at 500000 baud: RAW frames (sensor counts), or FUSED frames
- * (the paper's complementary filter, sec. 3, run on the board, and the flex angle
- * of eq. 3). Built with -DEB_LEGACY_TEXT=1 (make LEGACY_TEXT=1) it prints the
- * paper's text lines at 9600 baud instead (PROTOCOL.md sec. 10).
+ * firmware/PROTOCOL.md at 500000 baud: RAW frames (sensor counts) with a TEMP frame
+ * (the MPU's die temperature) once a second, or FUSED frames (the paper's
+ * complementary filter, sec. 3, run on the board, and the flex angle of eq. 3). Built
+ * with -DEB_LEGACY_TEXT=1 (make LEGACY_TEXT=1) it prints the paper's text lines at
+ * 9600 baud instead (PROTOCOL.md sec. 10).
  *
  * Timing: Timer1 raises an interrupt at each sample instant (sampler.cpp); the
  * loop serves host commands, takes the samples due, and sends status. Nothing
@@ -15,7 +16,8 @@
  * PORTB pins written directly (one sbi/cbi instruction each),
  *   PB0 (D8)  high while reading the sensors (I2C and ADC),
  *   PB1 (D9)  high while computing and encoding (filter, framing),
- *   PB2 (D10) high while handing the frame's bytes to Serial.
+ *   PB2 (D10) high while handing the frame's bytes to Serial (and, once a second in
+ *             RAW mode, encoding and handing over the TEMP frame that goes before it).
  * D13 (PB5) is the status LED: steady while measuring the gyroscope bias at boot
  * (keep still), a 50 ms flash a second while streaming, a slow blink when stopped,
  * a fast 5 Hz blink while the IMU is missing or failing.
@@ -55,6 +57,7 @@ static uint8_t *const BIAS_EEPROM = (uint8_t *)0;
 /* One sample as read. */
 struct Reading {
     int16_t acc[3], gyr[3];
+    int16_t temp; /* TEMP_OUT, from the same burst */
     uint16_t flex_sum; /* FLEX_OVERSAMPLE 10-bit conversions */
 };
 
@@ -95,13 +98,13 @@ static void send_reply(const uint8_t *frame, size_t n)
 }
 
 /* Sample frames never wait: one the TX buffer cannot take now is lost on the wire
- * (a seq gap to the host, PROTOCOL.md 7.5). */
-static void send_sample(const uint8_t *frame, size_t n)
+ * (a seq gap to the host, PROTOCOL.md 7.5); so is a TEMP frame. Whether it went. */
+static bool send_sample(const uint8_t *frame, size_t n)
 {
-    PHASE_ON(PHASE_SEND);
-    if ((size_t)Serial.availableForWrite() >= n)
-        Serial.write(frame, n);
-    PHASE_OFF(PHASE_SEND);
+    if ((size_t)Serial.availableForWrite() < n)
+        return false;
+    Serial.write(frame, n);
+    return true;
 }
 
 static void send_hello()
@@ -137,9 +140,9 @@ static void measure_gyro_bias()
     show_led(EB_LED_CALIBRATING); /* steady: keep still */
     delay(EB_BIAS_SETTLE_MS); /* the gyroscope starts and the DLPF settles */
     for (uint8_t i = 0; i < EB_BIAS_SAMPLES; i++) {
-        int16_t acc[3], gyr[3];
+        int16_t acc[3], gyr[3], temp;
         wdt_reset();
-        if (imu_read(acc, gyr) != IMU_READ_OK)
+        if (imu_read(acc, gyr, &temp) != IMU_READ_OK)
             break;
         eb_still_add(&still, gyr, acc);
         delayMicroseconds(1000); /* the MPU's internal rate: a new sample each ms */
@@ -231,7 +234,7 @@ static bool read_sensors(Reading &r)
 {
     PHASE_ON(PHASE_READ);
     start_flex();
-    ImuRead got = imu_read(r.acc, r.gyr);
+    ImuRead got = imu_read(r.acc, r.gyr, &r.temp);
     note_i2c(got == IMU_READ_OK);
     if (got == IMU_READ_OK && mag_wanted())
         note_i2c(imu_read_mag(imu));
@@ -289,14 +292,18 @@ static void emit_sample(const Reading &r, uint32_t t_us)
         n = eb_format_text_line(line, filter.q, flex_deg(r));
     }
     PHASE_OFF(PHASE_COMPUTE);
-    if (line_due)
+    if (line_due) {
+        PHASE_ON(PHASE_SEND);
         send_sample((const uint8_t *)line, n);
+        PHASE_OFF(PHASE_SEND);
+    }
 }
 #else
 static void emit_sample(const Reading &r, uint32_t t_us)
 {
     uint8_t frame[EB_MAX_BOARD_FRAME];
     size_t n;
+    bool temp = false; /* a TEMP frame goes first (PROTOCOL.md 4.3) */
     PHASE_ON(PHASE_COMPUTE);
     if (state.mode == EB_MODE_FUSED) {
         update_filter(r, t_us);
@@ -308,9 +315,21 @@ static void emit_sample(const Reading &r, uint32_t t_us)
                       {imu.mag.mag[0], imu.mag.mag[1], imu.mag.mag[2]}, flex_adc(r), EB_ACC_FS,
                       EB_GYR_FS, imu_mag_valid(imu), imu_mag_valid(imu) && imu.mag.overflow};
         n = eb_encode_raw(frame, &s);
+        temp = eb_temp_due(&state);
     }
     PHASE_OFF(PHASE_COMPUTE);
-    send_sample(frame, n);
+    PHASE_ON(PHASE_SEND);
+    /* PROTOCOL.md 4.3: the die temperature of this burst right before the first RAW frame
+     * sent since power-up, RESET, START or the switch to RAW, then again once rate_hz RAW
+     * frames have been sent since the last one (once a second). A RAW frame not sent is not
+     * counted: its TEMP frame goes again before the next. */
+    if (temp) {
+        uint8_t t[EB_FRAME_SIZE(EB_TEMP_LEN)];
+        send_sample(t, eb_encode_temp(t, t_us, r.temp));
+    }
+    if (send_sample(frame, n) && state.mode == EB_MODE_RAW)
+        eb_count_raw(&state, temp);
+    PHASE_OFF(PHASE_SEND);
 }
 #endif
 

@@ -138,16 +138,17 @@ uint16_t imu_init(Imu &imu, uint16_t rate_hz, uint32_t powered_ms)
  * WHO_AM_I), and
  * the data still reads fine, at +-2 g / +-250 deg/s. So the burst starts at
  * INT_PIN_CFG (0x37, reset value 0; ours has BYPASS_EN): 0x37..0x3A, then the
- * 14 data bytes. The check and the data come from one transfer, so no sample of
+ * 14 data bytes (accelerometer, TEMP_OUT, gyroscope: the temperature costs no extra
+ * bus time). The check and the data come from one transfer, so no sample of
  * a reset chip is ever taken. */
-ImuRead imu_read(int16_t acc[3], int16_t gyr[3])
+ImuRead imu_read(int16_t acc[3], int16_t gyr[3], int16_t *temp)
 {
     uint8_t burst[MPU_CHECKED_BURST_LEN];
     if (!read_regs(MPU_ADDR, MPU_INT_PIN_CFG, burst, MPU_CHECKED_BURST_LEN))
         return IMU_READ_FAILED;
     if (burst[0] != MPU_BYPASS_EN)
         return IMU_READ_RESET;
-    eb_mpu_parse(burst + MPU_CHECKED_BURST_LEN - MPU_BURST_LEN, acc, gyr);
+    eb_mpu_parse(burst + MPU_CHECKED_BURST_LEN - MPU_BURST_LEN, acc, gyr, temp);
     return IMU_READ_OK;
 }
 

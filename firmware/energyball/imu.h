@@ -32,9 +32,9 @@ enum ImuRead {
 uint16_t imu_init(Imu &imu, uint16_t rate_hz, uint32_t powered_ms);
 /* The digital low-pass filter for a sample rate (eb_dlpf_for_rate). */
 bool imu_set_rate(uint16_t rate_hz);
-/* Burst-read accelerometer and gyroscope counts, checked against a configuration
- * register read in the same burst. */
-ImuRead imu_read(int16_t acc[3], int16_t gyr[3]);
+/* Burst-read accelerometer, gyroscope and temperature (TEMP_OUT) counts, checked
+ * against a configuration register read in the same burst. */
+ImuRead imu_read(int16_t acc[3], int16_t gyr[3], int16_t *temp);
 /* Read the AK8963 (ST1..ST2) if its next measurement is due; a new measurement
  * replaces imu.mag. A failed read makes the held one invalid. */
 bool imu_read_mag(Imu &imu);

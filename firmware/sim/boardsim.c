@@ -1094,20 +1094,21 @@ static void print_json(FILE *f, const board_t *b, end_t end, double wall)
 		total += b->phases.p[i].total;
 		bus += b->phases.p[i].bus_total;
 	}
-	uint64_t other = u->frames - samples - u->by_type[EB_HELLO] - u->by_type[EB_ACK];
+	uint64_t other = u->frames - samples - u->by_type[EB_TEMP] - u->by_type[EB_HELLO] -
+			 u->by_type[EB_ACK];
 	fprintf(f, "{\n  \"elf\": ");
 	json_string(f, b->opt.elf);
 	fprintf(f, ",\n  \"end\": \"%s\",\n", ends[end]);
 	fprintf(f, "  \"simulated_s\": %.6f,\n  \"cycles\": %llu,\n  \"frequency_hz\": %u,\n"
 		"  \"wall_s\": %.3f,\n", sim_seconds(b), (unsigned long long)b->avr->cycle, F_CPU, wall);
 	fprintf(f, "  \"uart\": {\"bytes\": %llu, \"frames\": %llu, \"crc_errors\": %llu, "
-		"\"bytes_lost\": %llu, \"raw\": %llu, \"fused\": %llu, \"hello\": %llu, "
+		"\"bytes_lost\": %llu, \"raw\": %llu, \"fused\": %llu, \"temp\": %llu, \"hello\": %llu, "
 		"\"ack\": %llu, \"other\": %llu, \"hello_errors\": %u},\n",
 		(unsigned long long)u->bytes, (unsigned long long)u->frames,
 		(unsigned long long)u->crc_errors, (unsigned long long)b->bytes_lost,
 		(unsigned long long)u->by_type[EB_RAW], (unsigned long long)u->by_type[EB_FUSED],
-		(unsigned long long)u->by_type[EB_HELLO], (unsigned long long)u->by_type[EB_ACK],
-		(unsigned long long)other, (unsigned)u->hello_errors);
+		(unsigned long long)u->by_type[EB_TEMP], (unsigned long long)u->by_type[EB_HELLO],
+		(unsigned long long)u->by_type[EB_ACK], (unsigned long long)other, (unsigned)u->hello_errors);
 	json_line(f, b);
 	fprintf(f, "  \"i2c\": {\"transactions\": %llu, \"nacks\": %llu, \"bytes\": %llu, "
 		"\"bus_cycles\": %llu, \"scl_hz\": %u, \"stuck\": %llu, \"cleared\": %llu, \"blocked\": %s, "

@@ -72,7 +72,7 @@ class Parser(C.Structure):
 
 class State(C.Structure):
     _fields_ = [("rate_hz", C.c_uint16), ("mode", C.c_uint8), ("streaming", C.c_bool),
-                ("seq", C.c_uint16)]
+                ("seq", C.c_uint16), ("raw_sent", C.c_uint16)]
 
 
 class Reply(C.Structure):
@@ -113,6 +113,7 @@ _SIGNATURES = {
     "eb_encode_fused": (C.c_size_t, [_BYTES, C.POINTER(Fused)]),
     "eb_encode_hello": (C.c_size_t, [_BYTES, C.POINTER(Hello)]),
     "eb_encode_ack": (C.c_size_t, [_BYTES, C.c_uint8, C.c_uint8]),
+    "eb_encode_temp": (C.c_size_t, [_BYTES, C.c_uint32, C.c_int16]),
     "eb_q14": (C.c_int16, [C.c_float]),
     "eb_centi": (C.c_int16, [C.c_float]),
     "eb_parser_init": (None, [C.POINTER(Parser)]),
@@ -120,6 +121,8 @@ _SIGNATURES = {
     "eb_parser_next": (C.c_bool, [C.POINTER(Parser), C.POINTER(Command)]),
     "eb_state_power_up": (None, [C.POINTER(State)]),
     "eb_execute": (Reply, [C.POINTER(State), C.POINTER(Command)]),
+    "eb_temp_due": (C.c_bool, [C.POINTER(State)]),
+    "eb_count_raw": (None, [C.POINTER(State), C.c_bool]),
     "eb_rail_update": (C.c_bool, [C.POINTER(Rail), C.c_uint16, C.c_uint16]),
     "eb_led_on": (C.c_bool, [C.c_uint8, C.c_uint32]),
     "eb_rate_valid": (C.c_bool, [C.c_uint16, C.c_uint8]),
@@ -137,7 +140,7 @@ _SIGNATURES = {
     "eb_imu_known": (C.c_bool, [C.c_uint8]),
     "eb_fs_register": (C.c_uint8, [C.c_uint8]),
     "eb_dlpf_for_rate": (C.c_uint8, [C.c_uint16]),
-    "eb_mpu_parse": (None, [C.c_char_p, C.POINTER(C.c_int16), C.POINTER(C.c_int16)]),
+    "eb_mpu_parse": (None, [C.c_char_p, C.POINTER(C.c_int16), C.POINTER(C.c_int16), C.POINTER(C.c_int16)]),
     "eb_mag_adjust": (C.c_int16, [C.c_int16, C.c_uint8]),
     "eb_ak_parse": (None, [C.c_char_p, C.c_char_p, C.POINTER(Mag)]),
     "eb_flex_deg": (C.c_float, [C.c_float]),

@@ -7,7 +7,9 @@ import binascii
 import ctypes as C
 import math
 import random
+import re
 import struct
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -156,6 +158,132 @@ def test_ack_frames_match_the_host_encoder(lib):
     out = frame_buffer()
     n = lib.eb_encode_ack(out, P.FrameType.SET_RATE, 0)
     assert bytes(out[:n]).hex() == "a55a02048300a3fb"  # PROTOCOL.md 11.2
+
+
+# ------------------------------------------------------------------ TEMP frames (PROTOCOL.md 4.3)
+
+PROTOCOL_MD = Path(__file__).resolve().parents[2] / "firmware" / "PROTOCOL.md"
+TEMP_TYPE, TEMP_LEN = 0x05, 6
+RATE_HZ = 200  # the boot rate
+
+
+def temp_frame(t_us: int, temp_counts: int) -> bytes:
+    """A TEMP frame as PROTOCOL.md 2 and 4.3 describe it, encoded here and not by tracker.protocol:
+    sync, len 6, type 0x05, u32 t_us and i16 temp_counts little endian, CRC-16/CCITT-FALSE
+    over len, type and payload, little endian."""
+    body = struct.pack("<BBIh", TEMP_LEN, TEMP_TYPE, t_us, temp_counts)
+    return b"\xa5\x5a" + body + struct.pack("<H", binascii.crc_hqx(body, 0xFFFF))
+
+
+def c_temp(lib, t_us: int, temp_counts: int) -> bytes:
+    out = frame_buffer()
+    n = lib.eb_encode_temp(out, t_us, temp_counts)
+    return bytes(out[:n])
+
+
+def documented_temp_frames() -> list[bytes]:
+    """The frames in the code blocks of PROTOCOL.md 11.4, in order."""
+    section = PROTOCOL_MD.read_text().split("### 11.4 ", 1)[1]
+    return [bytes.fromhex(block) for block in re.findall(r"```\n([0-9a-f ]+)\n```", section)]
+
+
+def test_temp_frame_worked_examples(lib):
+    """PROTOCOL.md 11.4: the TEMP frame before 11.1's RAW frame with the die at 25 degC, and one
+    of a die at 0 degC (a negative count)."""
+    warm, cold = documented_temp_frames()
+    assert warm.hex(" ") == "a5 5a 06 05 87 d6 12 00 37 05 3c 14"
+    assert round((25 - 21) * 333.87) == 1335 and round((0 - 21) * 333.87) == -7011
+    assert c_temp(lib, 1234567, 1335) == warm == temp_frame(1234567, 1335)
+    assert c_temp(lib, 500000, -7011) == cold == temp_frame(500000, -7011)
+    raw = bytes.fromhex("a55a1a0187d612002a007800acfe0008fbff11000300c8006affcafe867d5f88")  # 11.1
+    assert warm[4:8] == raw[4:8]  # the same t_us as the RAW frame it goes before
+
+
+def test_temp_frames_match_an_independent_encoding(lib):
+    """Any t_us and count, the extremes included; every receiver takes the frame whole, whether
+    it reads TEMP or skips it as a type it does not know (PROTOCOL.md 3)."""
+    rng = random.Random(12)
+    cases = [(0, 0), (2**32 - 1, -32768), (2**32 - 1, 32767), (1, -1)]
+    cases += [(rng.randrange(2**32), rng.randrange(-32768, 32768)) for _ in range(500)]
+    for t_us, counts in cases:
+        data = c_temp(lib, t_us, counts)
+        assert data == temp_frame(t_us, counts) and len(data) == 12
+        d = P.FrameDecoder()
+        d.feed(data)
+        assert (d.stats.frames, d.stats.crc_errors, d.stats.bytes_skipped) == (1, 0, 0)
+
+
+def test_the_boards_decoder_skips_temp_frames(lib):
+    """A TEMP frame echoed back is skipped; a TEMP header with another len is no frame (sec. 9.1
+    step 2) and costs the command behind it nothing."""
+    rate = P.encode_command(P.Command(P.FrameType.SET_RATE, 100))
+    wrong_len = b"\xa5\x5a\x20\x05" + bytes(3)
+    assert c_commands(lib, temp_frame(1234567, 1335) + wrong_len + rate) == [
+        P.Command(P.FrameType.SET_RATE, 100)]
+
+
+def temps_before(lib, state: State, n: int, unsent: frozenset[int] = frozenset()) -> list[int]:
+    """Of the next n RAW frames, those a TEMP frame goes before (their indices), as the sketch's
+    emit_sample does it: ask eb_temp_due, then count each RAW frame sent (none of ``unsent``)."""
+    out = []
+    for i in range(n):
+        due = lib.eb_temp_due(C.byref(state))
+        if due:
+            out.append(i)
+        if i not in unsent:
+            lib.eb_count_raw(C.byref(state), due)
+    return out
+
+
+def test_a_temp_frame_goes_before_the_first_raw_frame_and_then_every_rate_hz_th(lib):
+    """PROTOCOL.md 4.3: right before the first RAW frame sent since power-up, RESET, START or a
+    switch to RAW mode, then again once rate_hz RAW frames have been sent since the last TEMP
+    frame: before RAW frames 0, rate_hz, 2 rate_hz, ..., once a second of samples."""
+    T = P.FrameType
+    s = State()
+    lib.eb_state_power_up(C.byref(s))
+    assert temps_before(lib, s, 5 * RATE_HZ + 1) == [0, 200, 400, 600, 800, 1000]
+    assert temps_before(lib, s, 150) == []  # the next after 49 more
+    execute(lib, s, P.Command(T.START))  # while streaming: from the next frame again
+    assert temps_before(lib, s, 2 * RATE_HZ + 1) == [0, 200, 400]
+    s.seq = 65534  # the count is not seq: its wrap changes nothing
+    assert temps_before(lib, s, RATE_HZ) == [199]
+    for stop_start in (T.STOP, T.START):
+        execute(lib, s, P.Command(stop_start))
+    assert temps_before(lib, s, 3) == [0]
+    execute(lib, s, P.Command(T.SET_MODE, 1))
+    execute(lib, s, P.Command(T.SET_MODE, 0))  # a switch into RAW
+    assert temps_before(lib, s, 3) == [0]
+    assert execute(lib, s, P.Command(T.SET_MODE, 0))[2] == 0  # RAW while RAW: no switch
+    assert temps_before(lib, s, RATE_HZ) == [197]  # the count ran on
+    # SET_RATE keeps the count: 150 RAW frames since (and with) the last one a TEMP frame
+    # went before, then a higher rate (250 Hz: 100 to go) or a lower one (100 Hz: already past)
+    execute(lib, s, P.Command(T.START))
+    assert temps_before(lib, s, 150) == [0]
+    execute(lib, s, P.Command(T.SET_RATE, 250))
+    assert temps_before(lib, s, 251) == [100]  # 150 since it
+    execute(lib, s, P.Command(T.SET_RATE, 100))
+    assert temps_before(lib, s, 101) == [0, 100]
+    execute(lib, s, P.Command(T.SET_RATE, 1))
+    assert temps_before(lib, s, 3) == [0, 1, 2]  # 1 Hz: every RAW frame
+    execute(lib, s, P.Command(T.RESET))  # power-up state: the first frame again
+    assert temps_before(lib, s, 2) == [0]
+
+
+def test_a_raw_frame_not_sent_is_not_counted_and_its_temp_frame_goes_again(lib):
+    """eb_temp_due has no side effect; a RAW frame the UART could not take is not counted
+    (PROTOCOL.md 4.3), so a TEMP frame due before it is due again before the next one."""
+    T = P.FrameType
+    s = State()
+    lib.eb_state_power_up(C.byref(s))
+    assert all(lib.eb_temp_due(C.byref(s)) for _ in range(3)) and s.raw_sent == 0
+    assert temps_before(lib, s, 4, unsent=frozenset({0, 1})) == [0, 1, 2]
+    # 200 counted since the last TEMP frame went: due before 198, not sent, nor 199, so before 200
+    assert temps_before(lib, s, RATE_HZ + 1, unsent=frozenset({198, 199})) == [198, 199, 200]
+    execute(lib, s, P.Command(T.SET_MODE, 1))  # FUSED: the sketch counts no frames
+    execute(lib, s, P.Command(T.START))
+    execute(lib, s, P.Command(T.SET_MODE, 0))
+    assert temps_before(lib, s, RATE_HZ + 6, unsent=frozenset(range(5, 10))) == [0, 205]  # 5 uncounted
 
 
 # ------------------------------------------------------------------ the board's decoder
@@ -510,12 +638,14 @@ def test_whoami_and_register_values(lib):
     assert [lib.eb_dlpf_for_rate(r) for r in (1, 40, 80, 200, 368, 400, 736, 1000)] == [6, 5, 4, 3, 2, 2, 1, 0]
 
 
-def test_mpu_burst_is_big_endian_and_skips_the_temperature(lib):
+@pytest.mark.parametrize("temp", [1335, -7011, -32768, 32767])
+def test_mpu_burst_is_big_endian_and_keeps_the_temperature(lib, temp):
+    """ACCEL_XOUT_H (0x3B) .. GYRO_ZOUT_L (0x48): TEMP_OUT (0x41-0x42) between the two."""
     acc, gyr = (120, -340, 2048), (-5, 17, -32768)
-    burst = struct.pack(">7h", *acc, 1234, *gyr)
-    a, g = (C.c_int16 * 3)(), (C.c_int16 * 3)()
-    lib.eb_mpu_parse(burst, a, g)
-    assert tuple(a) == acc and tuple(g) == gyr
+    burst = struct.pack(">7h", *acc, temp, *gyr)
+    a, g, t = (C.c_int16 * 3)(), (C.c_int16 * 3)(), C.c_int16()
+    lib.eb_mpu_parse(burst, a, g, C.byref(t))
+    assert tuple(a) == acc and tuple(g) == gyr and t.value == temp
 
 
 def test_magnetometer_adjustment_and_axes(lib):

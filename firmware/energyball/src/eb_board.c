@@ -9,6 +9,17 @@ void eb_state_power_up(eb_state_t *s)
     s->mode = EB_MODE_RAW;
     s->streaming = true; /* a plain serial monitor sees data without a handshake */
     s->seq = 0;
+    s->raw_sent = 0;
+}
+
+bool eb_temp_due(const eb_state_t *s)
+{
+    return s->raw_sent == 0 || s->raw_sent >= s->rate_hz;
+}
+
+void eb_count_raw(eb_state_t *s, bool after_temp)
+{
+    s->raw_sent = after_temp ? 1 : (uint16_t)(s->raw_sent + 1);
 }
 
 eb_reply_t eb_execute(eb_state_t *s, const eb_command_t *c)
@@ -17,6 +28,7 @@ eb_reply_t eb_execute(eb_state_t *s, const eb_command_t *c)
     switch (c->type) {
     case EB_START:
         s->streaming = true;
+        s->raw_sent = 0; /* a TEMP frame before the first RAW frame */
         break;
     case EB_STOP:
         s->streaming = false;
@@ -32,7 +44,10 @@ eb_reply_t eb_execute(eb_state_t *s, const eb_command_t *c)
     case EB_SET_MODE:
         /* a mode whose limit is below the present rate is refused: set the rate first */
         if ((c->arg == EB_MODE_RAW || c->arg == EB_MODE_FUSED) && eb_rate_valid(s->rate_hz, (uint8_t)c->arg)) {
-            r.action = c->arg != s->mode ? EB_ACTION_MODE : EB_ACTION_NONE;
+            if (c->arg != s->mode) {
+                r.action = EB_ACTION_MODE;
+                s->raw_sent = 0; /* into RAW: a TEMP frame before the first RAW frame */
+            }
             s->mode = (uint8_t)c->arg;
         } else {
             r.status = EB_ACK_BAD_ARGUMENT;

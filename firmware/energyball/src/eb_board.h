@@ -24,10 +24,26 @@ typedef struct {
     uint8_t mode;
     bool streaming;
     uint16_t seq; /* samples taken since power-up or RESET, wrapping */
+    uint16_t raw_sent; /* RAW frames sent since (and with) the last one a TEMP frame went
+                          before; 0: none since power-up, RESET, START or a mode switch */
 } eb_state_t;
 
 /* Sec. 7.1: 200 Hz, RAW, streaming on, seq 0. */
 void eb_state_power_up(eb_state_t *s);
+
+/* Whether a TEMP frame goes right before the next RAW frame (sec. 4.3), with its t_us:
+ * before the first RAW frame sent after power-up, RESET, START (even while streaming) or
+ * a switch into RAW mode, and then before every rate_hz-th, once a second of samples.
+ * No side effect: a RAW frame not sent leaves it due for the next one. */
+bool eb_temp_due(const eb_state_t *s);
+
+/* Count a RAW frame handed to the UART; after_temp: a TEMP frame was due before it (and
+ * offered to the UART, which drops it like a sample frame when full), which starts the
+ * count again at 1. Counted apart from seq, so its wrapping does not
+ * matter. SET_RATE does not start the count again: the next TEMP frame is due once
+ * rate_hz RAW frames (at the new rate) have been sent since the last one went, at once if
+ * that many have been already (a lower rate). */
+void eb_count_raw(eb_state_t *s, bool after_temp);
 
 enum { EB_ACTION_NONE, EB_ACTION_RETIME, EB_ACTION_MODE, EB_ACTION_RESET };
 

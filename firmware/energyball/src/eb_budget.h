@@ -12,8 +12,10 @@
  * and in RAW mode the AK8963 is read EB_MAG_READS_HZ times a second at most (EB_MAG_BITS
  * x SCL each). The link carries a frame in frame bytes x 10 bit times (8N1) at the baud
  * the UART really runs at. A rate is sustained when both fit in EB_BUDGET_PERCENT of a
- * second; the rest is kept for command replies, status HELLOs, the timer interrupts
- * and the loop's own jitter.
+ * second; the rest is kept for command replies, status HELLOs, TEMP frames, the timer
+ * interrupts and the loop's own jitter. A TEMP frame (PROTOCOL.md sec. 4.3, RAW mode only)
+ * is 12 bytes and about 3000 cycles (measured) once a second whatever the rate: 0.024% of
+ * the link at 500000 baud and 0.02% of the CPU, too little to count.
  *
  * The cycle figures are measured: firmware/sim/boardsim reports each phase's mean
  * cycles without simavr's bus time (README.md, "Rate limits", has the command and
@@ -43,10 +45,10 @@ extern "C" {
 #define EB_BAUD 500000ul
 
 /* Measured with firmware/sim/boardsim at 100 kHz and 500000 baud, 200 Hz, a still board
- * with the data sheets' noise (firmware/README.md, "Rate limits"): read 4575 (RAW) and
- * 3682 (FUSED) besides the bus, compute + send 2296 + 5242 (RAW) and 26325 + 3555
- * (FUSED), with some margin; the UART's interrupts (EB_UART_ISR_CYCLES a byte, counted
- * apart) fall into these phases. A FUSED sample whose tilt is more than 11 degrees off
+ * with the data sheets' noise (firmware/README.md, "Rate limits"): read 4641 (RAW) and
+ * 3682 (FUSED) besides the bus, compute + send 2347 + 5284 (RAW, the TEMP frames
+ * included) and 26325 + 3555 (FUSED), with some margin; the UART's interrupts
+ * (EB_UART_ISR_CYCLES a byte, counted apart) fall into these phases. A FUSED sample whose tilt is more than 11 degrees off
  * takes the filter's exact path, up to 3000 cycles more (firmware/README.md): the 10%
  * that EB_BUDGET_PERCENT keeps covers it. */
 #define EB_READ_CYCLES 5200u

@@ -31,6 +31,7 @@ int eb_payload_size(uint8_t type)
     case EB_FUSED: return EB_FUSED_LEN;
     case EB_HELLO: return EB_HELLO_LEN;
     case EB_ACK: return EB_ACK_LEN;
+    case EB_TEMP: return EB_TEMP_LEN;
     case EB_START: case EB_STOP: case EB_IDENTIFY: case EB_RESET: return 0;
     case EB_SET_RATE: return 2;
     case EB_SET_MODE: return 1;
@@ -132,6 +133,12 @@ size_t eb_encode_ack(uint8_t *out, uint8_t command, uint8_t status)
     out[EB_HEADER_SIZE] = command;
     out[EB_HEADER_SIZE + 1] = status;
     return seal(out, EB_ACK, EB_ACK_LEN);
+}
+
+size_t eb_encode_temp(uint8_t *out, uint32_t t_us, int16_t temp_counts)
+{
+    put_u16(put_u32(out + EB_HEADER_SIZE, t_us), (uint16_t)temp_counts);
+    return seal(out, EB_TEMP, EB_TEMP_LEN);
 }
 
 /* ------------------------------------------------------------- decoding */

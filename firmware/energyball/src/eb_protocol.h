@@ -23,7 +23,7 @@ extern "C" {
 
 /* Frame types (PROTOCOL.md sec. 3). */
 enum {
-    EB_RAW = 0x01, EB_FUSED = 0x02, EB_HELLO = 0x03, EB_ACK = 0x04,
+    EB_RAW = 0x01, EB_FUSED = 0x02, EB_HELLO = 0x03, EB_ACK = 0x04, EB_TEMP = 0x05,
     EB_START = 0x81, EB_STOP = 0x82, EB_SET_RATE = 0x83, EB_SET_MODE = 0x84,
     EB_IDENTIFY = 0x85, EB_RESET = 0x86
 };
@@ -33,6 +33,7 @@ enum {
 #define EB_FUSED_LEN 16
 #define EB_HELLO_LEN 14
 #define EB_ACK_LEN 2
+#define EB_TEMP_LEN 6
 #define EB_FRAME_SIZE(len) ((len) + EB_HEADER_SIZE + EB_CRC_SIZE)
 #define EB_MAX_BOARD_FRAME EB_FRAME_SIZE(EB_RAW_LEN) /* 32 bytes */
 
@@ -84,6 +85,8 @@ size_t eb_encode_raw(uint8_t *out, const eb_raw_t *s);
 size_t eb_encode_fused(uint8_t *out, const eb_fused_t *s);
 size_t eb_encode_hello(uint8_t *out, const eb_hello_t *h);
 size_t eb_encode_ack(uint8_t *out, uint8_t command, uint8_t status);
+/* TEMP (sec. 4.3): the MPU-9250's TEMP_OUT as read in the burst of the sample stamped t_us. */
+size_t eb_encode_temp(uint8_t *out, uint32_t t_us, int16_t temp_counts);
 
 /* round(x * 16384) and round(x * 100), ties to even as Python's round(), saturated
  * to int16 (sec. 4.2). */

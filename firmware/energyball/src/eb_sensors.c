@@ -24,12 +24,13 @@ static int16_t be16(const uint8_t *p)
     return (int16_t)((uint16_t)p[0] << 8 | p[1]);
 }
 
-void eb_mpu_parse(const uint8_t burst[MPU_BURST_LEN], int16_t acc[3], int16_t gyr[3])
+void eb_mpu_parse(const uint8_t burst[MPU_BURST_LEN], int16_t acc[3], int16_t gyr[3], int16_t *temp)
 {
     for (uint8_t i = 0; i < 3; i++) {
         acc[i] = be16(burst + 2 * i); /* 0x3B..0x40 */
-        gyr[i] = be16(burst + 8 + 2 * i); /* 0x43..0x48, after TEMP_OUT at 0x41 */
+        gyr[i] = be16(burst + 8 + 2 * i); /* 0x43..0x48 */
     }
+    *temp = be16(burst + 6); /* TEMP_OUT, 0x41..0x42 */
 }
 
 static int16_t saturate16(int32_t v)

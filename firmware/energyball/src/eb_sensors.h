@@ -66,8 +66,10 @@ uint8_t eb_fs_register(uint8_t fs_code);
  * what is sampled is band-limited well below Nyquist; code 6 (5 Hz) at the least. */
 uint8_t eb_dlpf_for_rate(uint16_t rate_hz);
 
-/* Accelerometer and gyroscope counts from the 14-byte burst at ACCEL_XOUT_H. */
-void eb_mpu_parse(const uint8_t burst[MPU_BURST_LEN], int16_t acc[3], int16_t gyr[3]);
+/* Accelerometer, temperature and gyroscope counts from the 14-byte burst at ACCEL_XOUT_H.
+ * temp is TEMP_OUT (0x41-0x42) as the chip delivers it: degC = temp / 333.87 + 21
+ * (RM-MPU-9250A-00 TEMP_OUT; PS-MPU-9250A-01 sec. 3.4.2), sent in TEMP frames. */
+void eb_mpu_parse(const uint8_t burst[MPU_BURST_LEN], int16_t acc[3], int16_t gyr[3], int16_t *temp);
 
 /* One AK8963 read (ST1 .. ST2). */
 typedef struct {
