@@ -584,14 +584,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="one line of JSON")
     p.set_defaults(func=cmd_experiment)
 
-    p = sub.add_parser("calibrate", help="the maker's calibrations of a board: accel, mag; show what is saved")
+    p = sub.add_parser("calibrate", help="the maker's calibrations of a board: accel, mag, thermal; "
+                                         "show what is saved")
     steps = p.add_subparsers(dest="procedure", required=True, metavar="PROCEDURE")
-    for name, text, limit in (("accel", "six poses: each face of the board up in turn", "300"),
-                              ("mag", "turn the board through all orientations", "180")):
+    for name, text, limit in (("accel", "six poses: each face of the board up in turn", "give up (saving nothing) "
+                               "after this long"),
+                              ("mag", "turn the board through all orientations", "give up (saving nothing) after "
+                               "this long"),
+                              ("thermal", "the gyroscope's bias as the board warms: leave it still from cold",
+                               "watch the board warm this long")):
         q = steps.add_parser(name, help=text)
         add_source_options(q, modes=False)
-        q.add_argument("--seconds", type=SECONDS,
-                       help=f"give up (saving nothing) after this long, {SECONDS.text} ({limit})")
+        default = {"accel": "300", "mag": "180", "thermal": "600"}[name]
+        q.add_argument("--seconds", type=SECONDS, help=f"{limit}, {SECONDS.text} ({default})")
         q.add_argument("--json", action="store_true", help="print the result as JSON")
         v = q.add_argument_group("the simulated board and maker (with --virtual)")
         v.add_argument("--seed", type=SEED, help=f"seed of its errors and the maker's hands, {SEED.text} (0)")

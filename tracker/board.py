@@ -171,6 +171,8 @@ class _BoardState:
     seq: int = 0
     boot: float = 0.0  # monotonic time of power-up
     next_sample: int = 0  # index of the next sample since power-up
+    raw_since_temp: int = 0  # RAW frames sent since the last TEMP frame; 0: none since streaming raw began
+    temp: int | None = None  # the TEMP_OUT last sent
 
 
 class VirtualBoard:
@@ -327,7 +329,7 @@ class VirtualBoard:
         st = self._state
         status = P.AckStatus.OK
         if c.type == P.FrameType.START:
-            st.streaming = True
+            st.streaming, st.raw_since_temp = True, 0
         elif c.type == P.FrameType.STOP:
             st.streaming = False
         elif c.type == P.FrameType.SET_RATE:  # the firmware's limits (P.BOARD_MAX_RATE_HZ)
@@ -337,6 +339,8 @@ class VirtualBoard:
                 status = P.AckStatus.BAD_ARGUMENT
         elif c.type == P.FrameType.SET_MODE:
             if c.arg in P.Mode._value2member_map_ and P.board_rate_error(st.rate_hz, P.Mode(c.arg)) is None:
+                if st.mode != P.Mode.RAW:
+                    st.raw_since_temp = 0  # into raw: a TEMP frame before the first RAW frame
                 st.mode = P.Mode(c.arg)
             else:
                 status = P.AckStatus.BAD_ARGUMENT
@@ -388,13 +392,21 @@ class VirtualBoard:
             sample = P.FusedSample(t, None, seq, r.q, r.flex_deg)
             self.sent.append(sample)
             return P.format_text_line(sample)
-        if st.mode == P.Mode.FUSED:
-            sample = P.FusedSample(t, t_us, seq, r.q, r.flex_deg)
-        else:
-            sample = quantise(r, t, t_us, seq, s.acc_fs_g, s.gyr_fs_dps)
-        self.sent.append(sample)
         self.counters.frames_sent += 1
-        return P.encode(sample)
+        if st.mode == P.Mode.FUSED:
+            sample: P.RawSample | P.FusedSample = P.FusedSample(t, t_us, seq, r.q, r.flex_deg)
+            self.sent.append(sample)
+            return P.encode(sample)
+        temp = b""
+        if r.die_c is not None and temp_due(st.raw_since_temp, st.rate_hz):
+            st.temp = P.temp_counts(r.die_c)
+            temp = P.encode_temp(t_us, st.temp)
+            st.raw_since_temp = 0
+        st.raw_since_temp += 1
+        sample = quantise(r, t, t_us, seq, s.acc_fs_g, s.gyr_fs_dps)._replace(temp_counts=st.temp)  # the host
+        # knows the temperature of the latest TEMP frame, not this sample's
+        self.sent.append(sample)
+        return temp + P.encode(sample)
 
     # -------------------------------------------------------------- the wire
 
@@ -439,6 +451,13 @@ def hello(rate_hz: int, mode: P.Mode, streaming: bool, acc_fs_g: int, gyr_fs_dps
                    rate_hz, mode, streaming, acc_fs_g, gyr_fs_dps, errors)
 
 
+def temp_due(raw_since_temp: int, rate_hz: int) -> bool:
+    """Whether a TEMP frame goes before the next RAW frame, ``raw_since_temp`` RAW frames sent since the
+    last one (0: none since streaming raw began): before the first RAW frame and then once ``rate_hz``
+    have been sent (a second; PROTOCOL.md sec. 4.3)."""
+    return raw_since_temp == 0 or raw_since_temp >= rate_hz
+
+
 def counts(values: ArrayLike, lsb: float) -> NDArray[np.int64]:
     """Quantise and saturate to int16, as the sensor's ADC does (ties to even, like ``round``)."""
     return np.clip(np.rint(np.asarray(values, dtype=float) / lsb), -32768, 32767).astype(np.int64)
@@ -460,4 +479,5 @@ def quantise(r: SensorReading, t: float, t_us: int, seq: int,
     acc = tuple(counts(r.acc, acc_lsb(acc_fs_g)).tolist())
     gyr = tuple(counts(r.gyr, gyr_lsb(gyr_fs_dps)).tolist())
     mag = tuple(counts(r.mag, P.MAG_UT_PER_COUNT).tolist()) if r.mag is not None else None
-    return P.RawSample(t, t_us, seq, acc, gyr, mag, r.flex_adc, acc_fs_g, gyr_fs_dps)
+    temp = P.temp_counts(r.die_c) if r.die_c is not None else None
+    return P.RawSample(t, t_us, seq, acc, gyr, mag, r.flex_adc, acc_fs_g, gyr_fs_dps, temp_counts=temp)

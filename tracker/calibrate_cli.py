@@ -41,6 +41,7 @@ from .link import Link
 from .mag_procedure import MagProcedure, MagStatus
 from .magfit import MagFitError
 from .protocol import BoardError, Hello, RawSample
+from .thermal import ThermalParams, ThermalProcedure, ThermalStatus
 
 if TYPE_CHECKING:  # the virtual board and the simulated maker are POSIX only (a pty): imported when used
     from .board import VirtualBoard
@@ -50,6 +51,9 @@ POLL_S = 0.02  # how often the loop drains the link, feeds the procedure and red
 LIVE_INTERVAL_S = 0.25  # the live line on a terminal; elsewhere (a log, a test) once a second
 ACCEL_SECONDS = 300.0  # the longest an accelerometer calibration may take before it is refused
 MAG_SECONDS = 180.0  # the same for the magnetometer: turning through all orientations takes a minute or two
+THERMAL_SECONDS = ThermalParams().duration_s  # how long the warm-up calibration watches the board warm
+MINUTE_S = 60.0  # the warm-up's narration: a line a minute
+THERMAL_GRACE_S = 30.0  # the warm-up counts the board's seconds: a pulled cable's may come later
 COVERAGE_STEP = 0.25  # say so each time another quarter of the directions is covered
 SETTLED_S = 0.5  # a board this long on a face captured already was laid there, not turned past it (0.2 s)
 
@@ -59,17 +63,19 @@ FACE_HINTS = {"+z": "chip side up", "-z": "chip side down", "+x": "the x arrow p
               "-y": "the y arrow pointing down"}
 # How `calibrate show` writes a procedure's figures (ProcedureRecord.figures), by name.
 FIGURES = {"residual_m_s2": "residual {:.4f} m/s^2", "residual_ut": "residual {:.2f} uT",
-           "strength_ut": "field {:.1f} uT", "dip_deg": "dip {:.1f} deg"}
+           "strength_ut": "field {:.1f} uT", "dip_deg": "dip {:.1f} deg", "rise_c": "warmed {:.2f} degC",
+           "slope_dps_per_c": "slope {:.3f} deg/s per degC", "residual_dps": "residual {:.3f} deg/s"}
 # The figures --json reports against the simulated board's truth (tracker.maker_sim.calibration_errors).
 TRUTH_ERRORS = {"accel": ("acc_offset_error_mg", "acc_scale_error_pct"),
-                "mag": ("mag_hard_iron_error_ut", "mag_soft_iron_error_pct")}
+                "mag": ("mag_hard_iron_error_ut", "mag_soft_iron_error_pct"),
+                "thermal": ("gyro_thermal_error_dps_per_c",)}
 
-Status = TypeVar("Status", AccelStatus, MagStatus)
+Status = TypeVar("Status", AccelStatus, MagStatus, ThermalStatus)
 Shown = TypeVar("Shown", covariant=True)
 
 
 class Procedure(Protocol[Shown]):
-    """What the loop needs of :class:`AccelProcedure` and :class:`MagProcedure`."""
+    """What the loop needs of :class:`AccelProcedure`, :class:`MagProcedure` and :class:`ThermalProcedure`."""
 
     @property
     def status(self) -> Shown: ...
@@ -306,6 +312,54 @@ def finish_mag(board_id: str, procedure: MagProcedure, status: MagStatus,
     return fitted, C.ProcedureRecord.now("mag", figures), values, [line]
 
 
+# ----------------------------------------------------------------- the gyroscope's warm-up
+
+
+@dataclass
+class ThermalNarrator:
+    """Says the first prompt, a line each minute, and each new reason a second was left out."""
+
+    said_minutes: int = 0
+    said_moved: str = ""
+
+    def __call__(self, before: ThermalStatus | None, st: ThermalStatus, term: Terminal) -> None:
+        if before is None:
+            term.say("the gyroscope's warm-up: power the board up cold (unplugged for ten minutes or more) and "
+                     "leave it lying still while it warms; nothing to do until it is done")
+        minutes = int(st.elapsed_s // MINUTE_S)
+        if minutes > self.said_minutes and st.die_c is not None:
+            self.said_minutes = minutes
+            term.say(f"{minutes} min: die {st.die_c:.2f} degC (+{st.rise_c:.2f}), {st.still_s} still seconds")
+        if st.moved and st.moved != self.said_moved:
+            term.say(f"a second was left out: {st.moved}")
+        self.said_moved = st.moved
+
+
+def live_thermal(st: ThermalStatus) -> str:
+    return f"[{st.elapsed_s / MINUTE_S:4.1f} min]  {st.message}"
+
+
+def finish_thermal(board_id: str, procedure: ThermalProcedure, status: ThermalStatus,
+                   seconds: float) -> tuple[C.BoardCalibration, C.ProcedureRecord, dict, list[str]]:
+    """The warm-up's fit as a calibration, its record, its report; refused when the board stopped
+    sending before the end, sent no temperature, lay still too little or barely warmed."""
+    if not status.done:
+        raise CalibrationRefused(f"the board was watched for {status.elapsed_s:.0f} of {seconds:g} s; "
+                                 "nothing was saved")
+    result = procedure.result()
+    if not result.ok:
+        raise CalibrationRefused(f"{result.problem}; nothing was saved")
+    fitted = C.BoardCalibration(board_id, gyro_thermal=result.slope, gyro_thermal_ref_c=result.ref_c)
+    slope = np.degrees(result.slope)
+    figures = {"rise_c": result.rise_c, "slope_dps_per_c": float(np.linalg.norm(slope)),
+               "residual_dps": result.residual_dps}
+    values = {"still_s": result.seconds, "gyro_thermal": result.slope.tolist(),
+              "gyro_thermal_ref_c": result.ref_c, **figures}
+    line = (f"gyroscope warm-up: bias slope ({_numbers(slope, '{:+.4f}')}) deg/s per degC about "
+            f"{result.ref_c:.2f} degC; warmed {result.rise_c:.2f} degC, residual {result.residual_dps:.3f} deg/s")
+    return fitted, C.ProcedureRecord.now("thermal", figures), values, [line]
+
+
 # ----------------------------------------------------------------- the commands
 
 
@@ -399,8 +453,13 @@ def calibrate(name: str, link: Link, term: Terminal, seconds: float | None = Non
     damaged = C.damage(board_id)
     if damaged:
         term.say(f"{damaged}; saving this calibration will replace it, keeping a copy as {path.name}.damaged")
-    limit = seconds or (ACCEL_SECONDS if name == "accel" else MAG_SECONDS)
-    if name == "accel":
+    limit = seconds or {"accel": ACCEL_SECONDS, "mag": MAG_SECONDS, "thermal": THERMAL_SECONDS}[name]
+    if name == "thermal":
+        thermal = ThermalProcedure(ThermalParams(duration_s=limit))
+        t_steps: Steps[ThermalStatus] = Steps(lambda s: s.done, live_thermal, ThermalNarrator())
+        t_status, interruptions = run_procedure(link, thermal, t_steps, term, limit + THERMAL_GRACE_S, maker)
+        fitted, record, values, lines = finish_thermal(board_id, thermal, t_status, limit)
+    elif name == "accel":
         accel = AccelProcedure()
         a_steps: Steps[AccelStatus] = Steps(lambda s: s.done, live_accel, AccelNarrator())
         a_status, interruptions = run_procedure(link, accel, a_steps, term, limit, maker)
@@ -452,6 +511,9 @@ def show_board(cal: C.BoardCalibration) -> list[str]:
         if name == "accel":
             lines.append(f"  {'':13s}  offset ({_numbers(cal.acc_offset, '{:+.4f}')}) m/s^2, "
                          f"scale ({_numbers(cal.acc_scale, '{:.5f}')})")
+        elif name == "thermal":
+            lines.append(f"  {'':13s}  bias slope ({_numbers(np.degrees(cal.gyro_thermal), '{:+.4f}')}) deg/s "
+                         f"per degC about {float(cal.gyro_thermal_ref_c):.2f} degC")
         else:
             lines.append(f"  {'':13s}  hard iron ({_numbers(cal.mag_hard_iron, '{:+.2f}')}) uT, "
                          f"soft iron rows {_rows(cal.mag_soft_iron)}")
@@ -470,5 +532,6 @@ def show(as_json: bool) -> tuple[str, list[str]]:
                            "damaged": bad}), bad
     if not boards:
         return (f"no board calibration saved yet in {folder}: connect the board and run "
-                "`armtracker calibrate accel`, then `armtracker calibrate mag`"), bad
+                "`armtracker calibrate accel`, then `armtracker calibrate mag` (and, from cold, "
+                "`armtracker calibrate thermal`)"), bad
     return "\n".join(line for b in good for line in show_board(b)), bad

@@ -57,7 +57,7 @@ from numpy.typing import ArrayLike, NDArray
 from .atomic import atomic_write
 from .lowpass import LowPass2
 from . import quat
-from .protocol import Hello, RawSample
+from .protocol import Hello, RawSample, temp_c
 from .userjson import JSONInputError, read_json
 
 Array = NDArray[np.float64]
@@ -866,8 +866,10 @@ _BOARD_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,79}")
 PROCEDURES: dict[str, tuple[str, ...]] = {
     "accel": ("acc_offset", "acc_scale", "acc_misalignment"),
     "mag": ("mag_hard_iron", "mag_soft_iron"),
+    "thermal": ("gyro_thermal", "gyro_thermal_ref_c"),
 }
-PROCEDURE_TITLES: dict[str, str] = {"accel": "accelerometer", "mag": "magnetometer"}
+PROCEDURE_TITLES: dict[str, str] = {"accel": "accelerometer", "mag": "magnetometer", "thermal": "gyroscope warm-up"}
+_ADDED_LATER = ("gyro_thermal", "gyro_thermal_ref_c")  # fields files saved before them lack: defaults
 _FIGURE_NAME = re.compile(r"[a-z][a-z0-9_]{0,39}")
 MAX_DAMAGED_COPIES = 20  # <name>.damaged, <name>.damaged.2, ... (then a save is refused)
 
@@ -961,13 +963,16 @@ class _PlainCalibration:
     acc_misalignment: Rows | None
     mag_hard_iron: Vec
     mag_soft_iron: Rows | None
+    gyro_thermal: Vec | None  # None when there is no thermal calibration
+    gyro_thermal_ref_c: float
 
     @classmethod
     def of(cls, cal: BoardCalibration) -> _PlainCalibration:
         """The plain-float copy of ``cal``'s arrays."""
         return cls(_floats(cal.gyro_bias), _floats(cal.acc_offset), _floats(cal.acc_scale),
                    _matrix(cal.acc_misalignment), _floats(cal.mag_hard_iron),
-                   _matrix(cal.mag_soft_iron))
+                   _matrix(cal.mag_soft_iron), _floats(cal.gyro_thermal) if cal.gyro_thermal.any() else None,
+                   float(cal.gyro_thermal_ref_c))
 
 
 def _floats(v: Array) -> Vec:
@@ -996,7 +1001,10 @@ class BoardCalibration:
     """Everything calibrated for one board; the defaults correct nothing.
 
     :meth:`apply_arrays` computes
-        gyr_cal = gyr - gyro_bias                                (the hand-tracking paper, eq. 2)
+        gyr_cal = gyr - gyro_bias - gyro_thermal (T - gyro_thermal_ref_c)
+                  (the hand-tracking paper, eq. 2, with the bias's linear temperature model of a thermal
+                  calibration, :mod:`tracker.thermal`; T the die's temperature, the term left out
+                  for a sample without one)
         acc_cal = acc_misalignment @ (acc_scale * (acc - acc_offset))   (Tedaldi 2014)
         mag_cal = mag_soft_iron @ (mag - mag_hard_iron)          (hard/soft iron)
     in rad/s, m/s^2 and uT. ``board_id`` names the board's file (see :func:`board_id_of`).
@@ -1013,6 +1021,8 @@ class BoardCalibration:
     acc_misalignment: Array = field(default_factory=lambda: np.eye(3))
     mag_hard_iron: Array = field(default_factory=lambda: np.zeros(3))
     mag_soft_iron: Array = field(default_factory=lambda: np.eye(3))
+    gyro_thermal: Array = field(default_factory=lambda: np.zeros(3))  # rad/s per degC of the die
+    gyro_thermal_ref_c: Array = field(default_factory=lambda: np.zeros(()))  # degC where it is zero
     procedures: tuple[ProcedureRecord, ...] = ()
     _plain: _PlainCalibration = field(init=False, repr=False)  # the arrays as floats, for apply
 
@@ -1052,19 +1062,25 @@ class BoardCalibration:
         return replace(self, procedures=kept + (record,), **taken)
 
     def apply_arrays(self, acc: ArrayLike, gyr: ArrayLike,
-                     mag: ArrayLike | None = None) -> Corrected:
-        """Correct readings of shape (..., 3) (one sample or many); see the class doc."""
+                     mag: ArrayLike | None = None, die_c: ArrayLike | None = None) -> Corrected:
+        """Correct readings of shape (..., 3) (one sample or many; ``die_c`` (...) in degC, or None
+        when the board sent no temperature); see the class doc."""
         a = (np.asarray(acc, dtype=np.float64) - self.acc_offset) * self.acc_scale
         m = None if mag is None else \
             (np.asarray(mag, dtype=np.float64) - self.mag_hard_iron) @ self.mag_soft_iron.T
-        return Corrected(a @ self.acc_misalignment.T,
-                         np.asarray(gyr, dtype=np.float64) - self.gyro_bias, m)
+        g = np.asarray(gyr, dtype=np.float64) - self.gyro_bias
+        if die_c is not None:
+            g = g - (np.asarray(die_c, dtype=np.float64)[..., None] - self.gyro_thermal_ref_c) * self.gyro_thermal
+        return Corrected(a @ self.acc_misalignment.T, g, m)
 
     def apply(self, sample: RawSample) -> Corrected:
         """Correct one raw sample (its SI readings): :meth:`apply_arrays` on plain floats."""
         c = self._plain
         (ax, ay, az), (gx, gy, gz), mag = sample.acc, sample.gyr, sample.mag
         (ox, oy, oz), (sx, sy, sz), (bx, by, bz) = c.acc_offset, c.acc_scale, c.gyro_bias
+        if c.gyro_thermal is not None and sample.temp_counts is not None:
+            dt = temp_c(sample.temp_counts) - c.gyro_thermal_ref_c
+            bx, by, bz = bx + c.gyro_thermal[0] * dt, by + c.gyro_thermal[1] * dt, bz + c.gyro_thermal[2] * dt
         acc = _transform(c.acc_misalignment, (ax - ox) * sx, (ay - oy) * sy, (az - oz) * sz)
         if mag is not None:
             (mx, my, mz), (hx, hy, hz) = mag, c.mag_hard_iron
@@ -1085,6 +1101,8 @@ class BoardCalibration:
         if d.get("version") != VERSION:
             raise ValueError(f"it has format version {d.get('version')!r}, and this program "
                              f"reads version {VERSION}")
+        defaults = {n: getattr(cls(), n).tolist() for n in _ADDED_LATER if n not in d}
+        d = {**d, **defaults}
         names = ["board_id"] + [f.name for f in _array_fields()]
         missing = [n for n in names if n not in d]
         if missing:
@@ -1106,10 +1124,10 @@ def _records(d: object) -> tuple[ProcedureRecord, ...]:
 
 
 def _plain_numbers(value: object) -> bool:
-    """A list of numbers or of lists of numbers, as :meth:`BoardCalibration.to_json` writes: no
-    text, no true/false (which numpy would take for numbers)."""
+    """A number, a list of numbers or of lists of numbers, as :meth:`BoardCalibration.to_json` writes:
+    no text, no true/false (which numpy would take for numbers)."""
     if not isinstance(value, list):
-        return False
+        value = [value]
     items: list[object] = []
     for v in value:
         items.extend(v if isinstance(v, list) else [v])

@@ -61,10 +61,11 @@ from .calibration import BoardCalibration, SixPoseResult
 from .mag_procedure import MagProcedure, MagResult, MagStatus
 from .magfit import MagFitError
 from .motion import SensorReading
-from .protocol import MAG_UT_PER_COUNT, STANDARD_GRAVITY, RawSample
+from .protocol import MAG_UT_PER_COUNT, STANDARD_GRAVITY, RawSample, temp_counts
 from .sim import (SCALE_TOLERANCE, Chain, LinkSpec, Motion, SampleStream, SensorErrors, SensorSpec, Simulator,
-                  realistic_errors)
+                  die_rise_c, realistic_errors)
 from .sim_board import ACC_FS_G, GYR_FS_DPS
+from .thermal import ThermalParams, ThermalProcedure, ThermalResult, ThermalStatus
 
 Array = NDArray[np.float64]
 Vec3 = tuple[float, float, float]
@@ -77,8 +78,11 @@ TUMBLE_SPIN_S = 4.0  # a turn of the tumble's spin (90 deg/s), drawn within +-20
 TUMBLE_SWING_S = 48.0  # the spin axis tilts from the field's direction to its opposite and back
 EASE_S = 1.0  # the tumble's smooth start
 NUDGE_DEG, NUDGE_S = 8.0, 0.4
+THERMAL_RATE_HZ = 10  # the warm-up's samples: any rate serves its per-second means; few are quick to simulate
+THERMAL_POWER_ON = 2  # the warm-up's power-on of the board (0: the other procedures', 1: play's)
 BLOCK_S = 3.0  # simulated at once: a block's own cost is about that of 100 samples; a prompt that changes
 # the motion within a block computed has it computed again (SimulatedMaker._replan), the same up to the change
+BLOCK_MIN = 600  # samples a block holds at least (at a low rate, 3 s would be mostly the block's own cost)
 FACE_AXES = {"+x": (1.0, 0.0, 0.0), "-x": (-1.0, 0.0, 0.0), "+y": (0.0, 1.0, 0.0),
              "-y": (0.0, -1.0, 0.0), "+z": (0.0, 0.0, 1.0), "-z": (0.0, 0.0, -1.0)}
 
@@ -184,7 +188,8 @@ class _Tumble:
 
 
 _Segment = _Move | _Tumble
-Counts = tuple[tuple[int, int, int], tuple[int, int, int], tuple[int, int, int], int]  # acc, gyr, mag, flex ADC
+Counts = tuple[tuple[int, int, int], tuple[int, int, int], tuple[int, int, int], int, int]
+# acc, gyr, mag, flex ADC, the die's TEMP_OUT
 
 
 @dataclass(frozen=True)
@@ -200,12 +205,13 @@ class _Block:
     mag: list[list[float]] = field(default_factory=list)
     q: list[list[float]] = field(default_factory=list)
     adc: list[int] = field(default_factory=list)
+    die_c: list[float] = field(default_factory=list)
 
     def reading(self, i: int) -> SensorReading:
         """Sample ``i``'s reading."""
         a, g, m, q = self.acc[i], self.gyr[i], self.mag[i], self.q[i]
         return SensorReading(acc=(a[0], a[1], a[2]), gyr=(g[0], g[1], g[2]), mag=(m[0], m[1], m[2]),
-                             flex_deg=0.0, flex_adc=self.adc[i], q=(q[0], q[1], q[2], q[3]))
+                             flex_deg=0.0, flex_adc=self.adc[i], q=(q[0], q[1], q[2], q[3]), die_c=self.die_c[i])
 
 
 class SimulatedMaker:
@@ -213,13 +219,15 @@ class SimulatedMaker:
 
     ``errors``: the board's (:func:`maker_errors`); ``seed``: the board's error
     draws (the same seed as a :class:`tracker.sim.Simulator` gives the same
-    board) and the maker's own choices; ``rate_hz``: the board's sample rate.
+    board) and the maker's own choices; ``rate_hz``: the board's sample rate;
+    ``power_on``: which power-on of the board this is (:class:`tracker.sim.ErrorModel`'s warm-up).
     Time is the board's clock (seconds since power-up); when the board powers
     up again (its clock restarts) the maker's world goes on where it was.
     """
 
     def __init__(self, errors: SensorErrors | None = None, seed: int = 0, rate_hz: float = RATE_HZ,
-                 magnet: Magnet | None = None, nudges: Sequence[float] = (), repeat_face: bool = False) -> None:
+                 magnet: Magnet | None = None, nudges: Sequence[float] = (), repeat_face: bool = False,
+                 power_on: int = 0) -> None:
         self.errors = maker_errors(errors)
         self.seed, self.rate_hz = seed, rate_hz
         self.magnet, self.nudges, self.repeat_face = magnet, tuple(nudges), repeat_face
@@ -227,9 +235,10 @@ class SimulatedMaker:
         start = Q.from_axis_angle((0.0, 0.0, 1.0), self._rng.uniform(0.0, 2.0 * np.pi))
         self._plan: tuple[_Segment, ...] = (_Move(-1.0, 0.0, start, start, "+z"),)
         self._simulator = Simulator(Chain((LinkSpec("board", 0.0),), (SensorSpec("imu", 0, (0.0, 0.0, 0.0)),)),
-                                    Motion(self._root, lambda t: np.zeros((len(t), 0))), self.errors, seed=seed)
+                                    Motion(self._root, lambda t: np.zeros((len(t), 0))), self.errors, seed=seed,
+                                    power_on=power_on)
         self._stream: SampleStream = self._simulator.stream(rate_hz)
-        self._block_n = max(1, int(BLOCK_S * rate_hz))  # samples per block
+        self._block_n = max(BLOCK_MIN, int(BLOCK_S * rate_hz))  # samples per block
         self._cache = _Block(-1, [])
         self._epoch = 0.0  # the maker's time at the board's latest power-up
         self._board_t = 0.0  # the board's latest time asked for
@@ -285,20 +294,21 @@ class SimulatedMaker:
         q = data.truth.q_sensors[:, 0]
         if self.magnet is not None:
             mag = mag + Q.rotate(Q.conjugate(q), self.magnet.at(data.t))
-        adc = data.flex_adc.tolist()
-        counted = [((a[0], a[1], a[2]), (g[0], g[1], g[2]), (m[0], m[1], m[2]), int(f))
-                   for a, g, m, f in zip(counts(acc, acc_lsb(ACC_FS_G)).tolist(),
-                                         counts(gyr, gyr_lsb(GYR_FS_DPS)).tolist(),
-                                         counts(mag, MAG_UT_PER_COUNT).tolist(), adc)]
-        return _Block(b, counted, acc.tolist(), gyr.tolist(), mag.tolist(), q.tolist(), adc)
+        adc, die = data.flex_adc.tolist(), data.die_c.tolist()
+        counted = [((a[0], a[1], a[2]), (g[0], g[1], g[2]), (m[0], m[1], m[2]), int(f), temp_counts(c))
+                   for a, g, m, f, c in zip(counts(acc, acc_lsb(ACC_FS_G)).tolist(),
+                                            counts(gyr, gyr_lsb(GYR_FS_DPS)).tolist(),
+                                            counts(mag, MAG_UT_PER_COUNT).tolist(), adc, die)]
+        return _Block(b, counted, acc.tolist(), gyr.tolist(), mag.tolist(), q.tolist(), adc, die)
 
     def raw_sample(self, t: float, seq: int = 0) -> RawSample:
         """The raw sample the board sends at board time ``t``: :meth:`reading` quantised as the firmware
         does (:func:`tracker.board.quantise`), at its default full scales."""
         self._advance(t)
         block, i = self._sample(self.now)
-        acc, gyr, mag, flex = block.counts[i]
-        return RawSample(t, round(t * 1e6) & 0xFFFFFFFF, seq & 0xFFFF, acc, gyr, mag, flex, ACC_FS_G, GYR_FS_DPS)
+        acc, gyr, mag, flex, temp = block.counts[i]
+        return RawSample(t, round(t * 1e6) & 0xFFFFFFFF, seq & 0xFFFF, acc, gyr, mag, flex, ACC_FS_G, GYR_FS_DPS,
+                         temp_counts=temp)
 
     # ------------------------------------------------------------------ following the prompts
 
@@ -332,8 +342,11 @@ class SimulatedMaker:
             else self._face_q(face, t0)
         self._replan(_Move(t0, t0 + TURN_S, q0, q1, face))
 
-    def follow(self, status: AccelStatus | MagStatus) -> None:
-        """Act on a procedure's prompt (module docstring); a prompt already being acted on changes nothing."""
+    def follow(self, status: AccelStatus | MagStatus | ThermalStatus) -> None:
+        """Act on a procedure's prompt (module docstring); a prompt already being acted on changes nothing.
+        The warm-up calibration asks for nothing: the board lies where it was laid down."""
+        if isinstance(status, ThermalStatus):
+            return
         current = self._plan[-1]
         if isinstance(status, MagStatus):
             if not isinstance(current, _Tumble):
@@ -373,16 +386,21 @@ class SimulatedMaker:
         D b + o_m, and with M = D S the soft iron is the symmetric W with W^T W
         proportional to (M M^T)^-1, normalised to det W = 1 as the fit is
         (:mod:`tracker.magfit`: only W up to a scale and a rotation is observable):
-        W = |det M|^(1/3) (M M^T)^(-1/2). gyro_bias: the offset at power-on.
+        W = |det M|^(1/3) (M M^T)^(-1/2). gyro_bias: the offset at power-on. gyro_thermal: this
+        power-on's warm-up over the die's rise (:func:`tracker.sim.die_temperature`), about the
+        temperature at power-on.
         """
         data = self._simulator.stream(self.rate_hz).block(0, 1)
         d, o_m = data.scale["mag"][0], data.offset["mag"][0]
         m = d[:, None] * data.soft_iron[0]
         values, vectors = np.linalg.eigh(m @ m.T)
         w = abs(np.linalg.det(m)) ** (1.0 / 3.0) * (vectors / np.sqrt(values)) @ vectors.T
+        gyr = self.errors.gyr
+        slope = data.warmup["gyr"][0] / die_rise_c(gyr) if gyr.warmup else np.zeros(3)
         return BoardCalibration(gyro_bias=data.offset["gyr"][0], acc_offset=data.offset["acc"][0],
                                 acc_scale=1.0 / data.scale["acc"][0],
-                                mag_hard_iron=d * data.hard_iron[0] + o_m, mag_soft_iron=0.5 * (w + w.T))
+                                mag_hard_iron=d * data.hard_iron[0] + o_m, mag_soft_iron=0.5 * (w + w.T),
+                                gyro_thermal=slope, gyro_thermal_ref_c=float(data.die_c[0]))
 
 
 def calibration_errors(fitted: BoardCalibration, truth: BoardCalibration) -> dict[str, float]:
@@ -391,13 +409,15 @@ def calibration_errors(fitted: BoardCalibration, truth: BoardCalibration) -> dic
     ``acc_offset_error_mg``: the worst axis's offset error in mg (1 g = 9.80665 m/s^2);
     ``acc_scale_error_pct``: the worst axis's fitted scale over the true, less one, in %;
     ``mag_hard_iron_error_ut``: the length of the hard iron's error; ``mag_soft_iron_error_pct``:
-    the largest element of the soft iron's error (the matrices are near the identity), in %.
+    the largest element of the soft iron's error (the matrices are near the identity), in %;
+    ``gyro_thermal_error_dps_per_c``: the length of the warm-up slope's error, deg/s per degC.
     """
     return {
         "acc_offset_error_mg": float(np.max(np.abs(fitted.acc_offset - truth.acc_offset))) / STANDARD_GRAVITY * 1e3,
         "acc_scale_error_pct": float(np.max(np.abs(fitted.acc_scale / truth.acc_scale - 1.0))) * 100.0,
         "mag_hard_iron_error_ut": float(np.linalg.norm(fitted.mag_hard_iron - truth.mag_hard_iron)),
         "mag_soft_iron_error_pct": float(np.max(np.abs(fitted.mag_soft_iron - truth.mag_soft_iron))) * 100.0,
+        "gyro_thermal_error_dps_per_c": math.degrees(float(np.linalg.norm(fitted.gyro_thermal - truth.gyro_thermal))),
     }
 
 
@@ -407,20 +427,20 @@ class MakerRun:
     :class:`tracker.mag_procedure.MagResult`; None when refused), ``error`` (the refusal's line, or
     ""), ``history`` ((maker's time, message) each time the message changed) and ``seconds`` taken."""
 
-    result: SixPoseResult | MagResult | None
+    result: SixPoseResult | MagResult | ThermalResult | None
     error: str
     history: list[tuple[float, str]] = field(default_factory=list)
     seconds: float = 0.0
 
 
-def run_maker(procedure: AccelProcedure | MagProcedure, maker: SimulatedMaker, limit_s: float = 180.0,
-              pull_cable: tuple[float, float] | None = None,
-              watch: Callable[[float, AccelStatus | MagStatus], None] | None = None) -> MakerRun:
+def run_maker(procedure: AccelProcedure | MagProcedure | ThermalProcedure, maker: SimulatedMaker,
+              limit_s: float = 180.0, pull_cable: tuple[float, float] | None = None,
+              watch: Callable[[float, AccelStatus | MagStatus | ThermalStatus], None] | None = None) -> MakerRun:
     """Run ``procedure`` offline on ``maker``'s board, as fast as the simulator goes.
 
     Each sample of the board (its rate, quantised as the firmware does) is fed
     to the procedure and the maker follows the status, until the accelerometer
-    procedure is done or the magnetometer procedure is ready or sees a problem
+    procedure (or the warm-up's) is done or the magnetometer procedure is ready or sees a problem
     (then it is finished), or ``limit_s`` of the maker's time pass.
     ``pull_cable`` = (at_s, for_s): the cable is pulled at ``at_s`` (maker's
     time) for ``for_s``: the procedure is told (``interrupted()``), and the
@@ -428,7 +448,7 @@ def run_maker(procedure: AccelProcedure | MagProcedure, maker: SimulatedMaker, l
     """
     run = MakerRun(None, "")
     k0, k, seq = 0, 0, 0
-    status: AccelStatus | MagStatus = procedure.status
+    status: AccelStatus | MagStatus | ThermalStatus = procedure.status
     while True:
         t = (k - k0) / maker.rate_hz
         if pull_cable is not None and maker.now >= pull_cable[0]:
@@ -444,7 +464,7 @@ def run_maker(procedure: AccelProcedure | MagProcedure, maker: SimulatedMaker, l
         if watch is not None:
             watch(maker.now, status)
         maker.follow(status)
-        if isinstance(status, AccelStatus) and status.done \
+        if isinstance(status, (AccelStatus, ThermalStatus)) and status.done \
                 or isinstance(status, MagStatus) and (status.ready or status.problem):
             break
         if maker.now >= limit_s:
@@ -453,17 +473,27 @@ def run_maker(procedure: AccelProcedure | MagProcedure, maker: SimulatedMaker, l
             return run
     run.seconds = maker.now
     try:
-        run.result = procedure.result() if isinstance(procedure, AccelProcedure) else procedure.finish()
+        run.result = procedure.finish() if isinstance(procedure, MagProcedure) else procedure.result()
     except MagFitError as e:
         run.error = str(e)
     if isinstance(run.result, SixPoseResult) and not run.result.ok:
         run.error = run.result.message
+    if isinstance(run.result, ThermalResult) and not run.result.ok:
+        run.error = run.result.problem
     return run
 
 
-def calibrate(maker: SimulatedMaker) -> tuple[BoardCalibration, list[str]]:
-    """Both procedures on ``maker``'s board, accelerometer first (its result serves the dip): the
-    calibration found (the identity where a procedure failed) and the failures' lines."""
+def warm_up(maker: SimulatedMaker, params: ThermalParams = ThermalParams()) -> MakerRun:
+    """The warm-up calibration (:mod:`tracker.thermal`) on ``maker``'s board: powered up cold (a power-on of
+    its own, :data:`THERMAL_POWER_ON`) and left lying still, sampled at :data:`THERMAL_RATE_HZ`."""
+    board = SimulatedMaker(maker.errors, maker.seed, THERMAL_RATE_HZ, power_on=THERMAL_POWER_ON)
+    return run_maker(ThermalProcedure(params), board, limit_s=params.duration_s + 1.0)
+
+
+def calibrate(maker: SimulatedMaker, thermal: bool = True) -> tuple[BoardCalibration, list[str]]:
+    """The procedures on ``maker``'s board, accelerometer first (its result serves the dip), then the
+    magnetometer, then (``thermal``) the warm-up: the calibration found (the defaults where a procedure
+    failed) and the failures' lines."""
     accel = run_maker(AccelProcedure(), maker)
     cal, problems = BoardCalibration(), []
     if isinstance(accel.result, SixPoseResult) and not accel.error:
@@ -477,6 +507,13 @@ def calibrate(maker: SimulatedMaker) -> tuple[BoardCalibration, list[str]]:
         cal = replace(cal, mag_hard_iron=np.array(fit.offset), mag_soft_iron=np.array(fit.soft_iron))
     else:
         problems.append(f"magnetometer calibration failed: {mag.error}")
+    if thermal:
+        warm = warm_up(maker)
+        if isinstance(warm.result, ThermalResult) and not warm.error:
+            cal = replace(cal, gyro_thermal=warm.result.slope, gyro_thermal_ref_c=warm.result.ref_c)
+        elif not (isinstance(warm.result, ThermalResult) and not warm.result.warmed):  # (a board that
+            # barely warms has nothing to predict: no failure)
+            problems.append(f"warm-up calibration failed: {warm.error}")
     return cal, problems
 
 

@@ -26,6 +26,7 @@ class SensorReading:
     flex_deg: float  # elbow angle, 0 = straight
     flex_adc: int  # what the board's 10-bit ADC reads
     q: tuple[float, float, float, float]  # true q_WS, scalar first
+    die_c: float | None = None  # the IMU die's temperature, degC (None: not simulated)
 
 
 class MotionSource(Protocol):

@@ -51,6 +51,7 @@ class FrameType(IntEnum):
     FUSED = 0x02
     HELLO = 0x03
     ACK = 0x04
+    TEMP = 0x05
     START = 0x81
     STOP = 0x82
     SET_RATE = 0x83
@@ -141,15 +142,19 @@ _CRC = struct.Struct("<H")
 _FUSED = struct.Struct("<IH4hh")  # t_us, seq, quaternion (Q14), flex centidegrees
 _HELLO = struct.Struct("<BBBBBBHBBBBH")
 _ACK = struct.Struct("<BB")
+_TEMP = struct.Struct("<Ih")  # t_us, the MPU-9250's TEMP_OUT
 _RATE = struct.Struct("<H")
 _MODE = struct.Struct("<B")
 Q14 = 16384.0
+TEMP_COUNTS_PER_C = 333.87  # the MPU-9250's temperature sensitivity (PS-MPU-9250A-01 sec. 3.4.2)
+TEMP_ROOM_C = 21.0  # where TEMP_OUT reads 0
 
 PAYLOAD_SIZE: dict[int, int] = {
     FrameType.RAW: _RAW.size,
     FrameType.FUSED: _FUSED.size,
     FrameType.HELLO: _HELLO.size,
     FrameType.ACK: _ACK.size,
+    FrameType.TEMP: _TEMP.size,
     FrameType.START: 0,
     FrameType.STOP: 0,
     FrameType.SET_RATE: _RATE.size,
@@ -215,6 +220,12 @@ class RawSample(NamedTuple):
     gyr_fs_dps: int = 2000
     mag_overflow: bool = False
     host_t: float | None = None
+    temp_counts: int | None = None  # the IMU die's TEMP_OUT from the latest TEMP frame; None before one
+
+    @property
+    def die_c(self) -> float | None:
+        """The IMU die's temperature in degC (PROTOCOL.md sec. 4.3), or None when the board sent none."""
+        return None if self.temp_counts is None else temp_c(self.temp_counts)
 
     @property
     def acc(self) -> tuple[float, float, float]:
@@ -402,9 +413,24 @@ def encode_raw_counts(t_us: int, seq: int, acc: tuple[int, int, int], gyr: tuple
 
 def encode_raw(s: RawSample) -> bytes:
     """Encode a raw sample frame (the decoder's exact inverse)."""
-    _, t_us, seq, acc, gyr, mag, flex, acc_fs_g, gyr_fs_dps, overflow, _ = s
+    _, t_us, seq, acc, gyr, mag, flex, acc_fs_g, gyr_fs_dps, overflow, *_ = s
     flags = raw_flags(flex, acc_fs_g, gyr_fs_dps, mag is not None, overflow)
     return encode_raw_counts(t_us, seq, acc, gyr, (0, 0, 0) if mag is None else mag, flags)
+
+
+def encode_temp(t_us: int, temp_counts: int) -> bytes:
+    """A TEMP frame (PROTOCOL.md sec. 4.3): the die's TEMP_OUT read in the burst of the sample at ``t_us``."""
+    return frame(FrameType.TEMP, _TEMP.pack(t_us & 0xFFFFFFFF, max(-32768, min(32767, temp_counts))))
+
+
+def temp_c(temp_counts: int) -> float:
+    """TEMP_OUT counts in degC: counts / 333.87 + 21 (RM-MPU-9250A-00, TEMP_OUT; PS-MPU-9250A-01 sec. 3.4.2)."""
+    return temp_counts / TEMP_COUNTS_PER_C + TEMP_ROOM_C
+
+
+def temp_counts(die_c: float) -> int:
+    """What TEMP_OUT reads at ``die_c`` degC: the inverse of :func:`temp_c`, rounded."""
+    return round((die_c - TEMP_ROOM_C) * TEMP_COUNTS_PER_C)
 
 
 def _q14(x: float) -> int:
@@ -493,6 +519,7 @@ class FrameDecoder:
     _epoch: int = 0  # microseconds the device clock has wrapped by so far (in this power-up)
     _last_seq: int = -1  # the sequence number of the last sample; -1 before the first
     _hello_since: bool = False  # a HELLO arrived after the last sample
+    _temp: int | None = None  # TEMP_OUT of the latest TEMP frame since the last HELLO
 
     def feed(self, data: bytes, host_t: float | None = None) -> list[Packet]:
         """Decode ``data`` appended to what is buffered; return complete packets."""
@@ -544,8 +571,11 @@ class FrameDecoder:
         """The packet whose (CRC-checked) payload starts at ``buf[at]``, for all but raw frames."""
         if ftype == FrameType.FUSED:
             return self._fused(buf, at, host_t)
+        if ftype == FrameType.TEMP:
+            self._temp = _TEMP.unpack_from(buf, at)[1]
+            return None
         if ftype == FrameType.HELLO:
-            self._hello_since = True
+            self._hello_since, self._temp = True, None
             return _hello(buf, at)
         if ftype == FrameType.ACK:
             cmd, status = _ACK.unpack_from(buf, at)
@@ -562,7 +592,7 @@ class FrameDecoder:
             self._advance(t_us, seq), t_us, seq, (ax, ay, az), (gx, gy, gz),
             (mx, my, mz) if flags & _MAG_VALID_BIT else None, flags & FLEX_ADC_MASK,
             ACC_FS_G[flags >> _ACC_FS_SHIFT & 3], GYR_FS_DPS[flags >> _GYR_FS_SHIFT & 3],
-            (flags & _MAG_OVERFLOW_BIT) != 0, host_t)
+            (flags & _MAG_OVERFLOW_BIT) != 0, host_t, self._temp)
 
     def _fused(self, buf: bytearray, at: int, host_t: float | None) -> FusedSample:
         t_us, seq, w, x, y, z, flex = _FUSED.unpack_from(buf, at)

@@ -49,7 +49,8 @@ from .userjson import JSONInputError, parse_json
 MAGIC = b"EBRAW1\n"
 CSV_FORMAT = "# energyball samples v1"
 RAW_COLUMNS = ["t_s", "t_us", "seq", "acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z",
-               "mag_x", "mag_y", "mag_z", "flex_adc", "acc_fs_g", "gyr_fs_dps", "host_t", "run"]
+               "mag_x", "mag_y", "mag_z", "flex_adc", "acc_fs_g", "gyr_fs_dps", "host_t", "die_c", "run"]
+_RAW_BEFORE_TEMP = [c for c in RAW_COLUMNS if c != "die_c"]  # files written before the TEMP frame
 FUSED_COLUMNS = ["t_s", "t_us", "seq", "qw", "qx", "qy", "qz", "flex_deg", "host_t", "run"]
 CHUNK = 4096
 MAX_HEADER_BYTES = 64 * 2**10  # ours are about 400 bytes
@@ -217,7 +218,7 @@ def _row(s: Sample) -> list[str]:
     if isinstance(s, P.RawSample):
         mag = s.mag or (None, None, None)
         return [_cell(v) for v in (s.t, s.t_us, s.seq, *s.acc, *s.gyr, *mag, s.flex_adc,
-                                   s.acc_fs_g, s.gyr_fs_dps, s.host_t)]
+                                   s.acc_fs_g, s.gyr_fs_dps, s.host_t, s.die_c)]
     return [_cell(v) for v in (s.t, s.t_us, s.seq, *s.q, s.flex_deg, s.host_t)]
 
 
@@ -322,11 +323,13 @@ def _csv_rows(f: IO[bytes], path: str | os.PathLike) -> tuple[P.Hello | None, It
             break
     else:
         columns = []
-    with_run = columns in (RAW_COLUMNS, FUSED_COLUMNS)
-    if not with_run and columns not in (RAW_COLUMNS[:-1], FUSED_COLUMNS[:-1]):
+    layouts = (RAW_COLUMNS, _RAW_BEFORE_TEMP, FUSED_COLUMNS)
+    with_run = columns in layouts
+    if not with_run and columns not in [c[:-1] for c in layouts]:
         raise RecordingError(f"{path}: unexpected columns; expected {','.join(RAW_COLUMNS)} "
                              f"or {','.join(FUSED_COLUMNS)}")
-    parse = _raw_sample if columns[3] == "acc_x" else _fused_sample
+    parse = (_raw_sample if "die_c" in columns else _raw_sample_before_temp) if columns[3] == "acc_x" \
+        else _fused_sample
     return hello, _checked_rows(path, lines, parse, len(columns), with_run)
 
 
@@ -430,6 +433,13 @@ _U16 = range(1 << 16)
 
 
 def _raw_sample(row: list[str]) -> P.RawSample:
+    """A row of :data:`RAW_COLUMNS`: the die's temperature back to the TEMP frame's counts (exactly:
+    a count is 0.003 degC, and the cell holds the degrees to 17 digits)."""
+    die = None if row[16] == "" else _float(row[16], "die_c", P.temp_c(-32768), P.temp_c(32767))
+    return _raw_sample_before_temp(row)._replace(temp_counts=None if die is None else P.temp_counts(die))
+
+
+def _raw_sample_before_temp(row: list[str]) -> P.RawSample:
     acc_fs = _int(row[13], "acc_fs_g", P.ACC_FS_G)
     gyr_fs = _int(row[14], "gyr_fs_dps", P.GYR_FS_DPS)
     mag_cells = row[9:12]
@@ -505,13 +515,19 @@ class Replay:
                 pass  # every row is checked before the first comes out
             f.seek(0)
             self.hello, rows = _csv_rows(f, self.path)
-            return ((P.encode(r.sample), r) for r in rows), P.FrameDecoder()
+            return ((_frames(r.sample), r) for r in rows), P.FrameDecoder()
         if is_session(f):  # a game's session recording: the board's bytes as they arrived
             session = SessionReader(self.path)
             self.session = session
             return ((chunk, None) for chunk in wire_chunks(session)), decoder_for(session.header.get("wire", {}))
         header, self.hello = _read_header(f, self.path)
         return ((chunk, None) for chunk in _chunks(f)), decoder_for(header)
+
+
+def _frames(s: Sample) -> bytes:
+    """A CSV row's sample as the board sent it: a raw one with a temperature after its TEMP frame."""
+    temp = s.temp_counts if isinstance(s, P.RawSample) else None
+    return (b"" if temp is None else P.encode_temp(s.t_us or 0, temp)) + P.encode(s)
 
 
 @dataclass

@@ -75,6 +75,7 @@ _KINDS = ("gyr", "acc", "mag", "flex")  # their index is their spawn key: 0-3
 _WARMUP_KEY = 3  # a kind's warm-up direction: spawn key (kind, 3), beside (kind, 0-2)
 _MAG_KEY = 4  # the board's hard and soft iron, and the room's field
 _FLEX_KEY = 5  # the flex sensor's nonlinearity
+_POWER_ON_KEY = 6  # a kind's warm-up direction at one power-on: spawn key (kind, 6, power_on)
 _MAG_MODES = 4  # spatial modes of the room's field disturbance
 
 # MPU-9250 product specification (PS-MPU-9250A-01 rev. 1.1), sec. 3.1-3.2; AK8963 in 16-bit mode.
@@ -91,6 +92,12 @@ MAG_FULL_SCALE_UT = 4912.0
 MAG_NOISE_RMS_UT = 0.6
 MAG_NOISE_DENSITY = MAG_NOISE_RMS_UT / math.sqrt(100.0)  # uT/sqrt(Hz)
 WARMUP_SPAN_S = 600.0  # ErrorModel.warmup is the offset's change over this long after power-on
+# The MPU-9250's zero-rate output varies by +-30 deg/s over -40 to +85 degC (PS-MPU-9250A-01, table 1):
+# at most 0.24 deg/s per degC. A warm-up of w deg/s warms the die by w / that (die_temperature): the
+# steepest slope the data sheet allows, so the least temperature signal for a given drift.
+ZRO_TEMPCO_DPS_PER_C = 60.0 / 125.0 / 2.0
+ROOM_C = 22.0  # the die's temperature at power-on: a room's
+TYPICAL_WARMUP_UNEXPLAINED = 0.2  # share of the warm-up a thermal calibration cannot predict (ErrorModel)
 
 # The "typical" board and player's sensors (realistic_errors; game.sim.motion_model.PlayerProfile's defaults).
 # Where each figure comes from: the docstrings of ErrorModel, MagneticErrors, FlexDynamics, realistic_errors.
@@ -198,6 +205,25 @@ class ErrorModel:
     so 0-4 deg/s covers 0 to about 17 degC. The time constant is that of a few
     grams of board (heat capacity about 5 J/K) losing heat to still air through
     some 30-60 K/W: 150-300 s, hence ``warmup_tau_s`` = 150 s.
+
+    The die's temperature follows the same curve (:func:`die_temperature`),
+    and most of the warm-up is a function of it, which a thermal calibration
+    measures (:mod:`tracker.thermal`). Not all: a temperature compensation of
+    a MEMS gyroscope's bias removes 73 % of its temperature drift (Liu, Liu,
+    Xu and Zhao, "Research on temperature compensation technology of micro-
+    electro-mechanical systems gyroscope in strap-down inertial measurement
+    unit", 2018, doi 10.1007/978-3-030-03766-6_2; 78 % for a dual-mass MEMS
+    gyroscope in a paper on PubMed Central, PMC6523767), the rest being thermal
+    hysteresis and gradients that differ from one warming to the next. So a
+    share r = ``warmup_unexplained`` of the warm-up takes a direction drawn anew
+    at every power-on (:class:`Simulator`'s ``power_on``):
+
+        u = (1 - r) u_board + r u_power_on,
+
+    the board's own direction u_board the same at every power-on. A calibration
+    made at one power-on leaves r (u_play - u_calibration) at another: on average
+    r 4/3 of the warm-up (the mean distance of two random points on the unit
+    sphere is 4/3), so r = 0.2 leaves the 27 % the compensation above left.
     """
 
     noise_density: float = 0.0  # white noise per sqrt(Hz): std = density * sqrt(rate)
@@ -208,6 +234,7 @@ class ErrorModel:
     full_scale: float = math.inf  # readings saturate at +-full_scale
     warmup: float = 0.0  # the offset's change over the first WARMUP_SPAN_S after power-on (sample 0)
     warmup_tau_s: float = 150.0  # thermal time constant of the warm-up curve
+    warmup_unexplained: float = 0.0  # share r of the warm-up that differs at every power-on (above)
 
 
 @dataclass(frozen=True)
@@ -352,7 +379,8 @@ def realistic_errors(gyro_bias_dps: float = TYPICAL_GYRO_BIAS_DPS, noise_scale: 
     (:class:`FlexDynamics`) and :data:`TYPICAL_FLEX_NOISE_COUNTS` of noise on
     the flex circuit. The defaults, the TYPICAL_* constants, are a typical
     board within the cited ranges: gyroscope offsets within +-1 deg/s (the
-    data sheet allows +-5), 4 degC of warming (1 deg/s), 30 uT of hard iron
+    data sheet allows +-5), 4 degC of warming (1 deg/s, 27 % of it unpredictable
+    from the die's temperature on average: :class:`ErrorModel`), 30 uT of hard iron
     and 5 % of soft iron, 5 uT of room disturbance
     (de Vries et al. 2009's 3 deg of heading spread above 1 m, in a 20 uT
     horizontal field, is about 1 uT; a living room's furniture and floor
@@ -362,7 +390,8 @@ def realistic_errors(gyro_bias_dps: float = TYPICAL_GYRO_BIAS_DPS, noise_scale: 
     base = mpu9250()
     circuit = FlexCircuit()
     gyr = replace(base.gyr, noise_density=base.gyr.noise_density * noise_scale,
-                  offset_max=math.radians(gyro_bias_dps), warmup=math.radians(gyro_warmup_dps))
+                  offset_max=math.radians(gyro_bias_dps), warmup=math.radians(gyro_warmup_dps),
+                  warmup_unexplained=TYPICAL_WARMUP_UNEXPLAINED)
     return SensorErrors(
         gyr=gyr,
         acc=replace(base.acc, noise_density=base.acc.noise_density * noise_scale),
@@ -406,6 +435,7 @@ class SimData:
     hard_iron: Array  # (S, 3) uT, the board's hard iron drawn
     soft_iron: Array  # (S, 3, 3) the soft-iron matrices I + E drawn
     flex_reading_deg: Array  # (N,) the angle the flex sensor reports, after its dynamics
+    die_c: Array  # (N,) the IMU die's temperature, degC (die_temperature)
 
 
 def _stencil_sum(weights: Array, x: Array) -> Array:
@@ -439,7 +469,7 @@ class _ErrorProcess:
     """One kind of sensor's errors as a function of the sample index (same index, same error)."""
 
     def __init__(self, model: ErrorModel, shape: tuple[int, ...], rate_hz: float,
-                 seed: int, kind: int) -> None:
+                 seed: int, kind: int, power_on: int = 0) -> None:
         self.model, self.shape, self._key = model, shape, (seed, kind)
         rng = _rng(seed, kind, 0)
         self.offset = rng.uniform(-model.offset_max, model.offset_max, shape)
@@ -448,7 +478,9 @@ class _ErrorProcess:
         if model.warmup:
             if not model.warmup_tau_s > 0:
                 raise ValueError(f"a warm-up needs a time constant above 0 s, not {model.warmup_tau_s}")
-            self.warmup = model.warmup * _directions(_rng(seed, kind, _WARMUP_KEY), shape)
+            r = model.warmup_unexplained
+            self.warmup = model.warmup * ((1.0 - r) * _directions(_rng(seed, kind, _WARMUP_KEY), shape)
+                                          + r * _directions(_rng(seed, kind, _POWER_ON_KEY, power_on), shape))
         self.rate_hz = rate_hz
         self._white_std = model.noise_density * math.sqrt(rate_hz)
         self._step_std = model.drift / math.sqrt(rate_hz)
@@ -489,9 +521,26 @@ class _ErrorProcess:
         return np.clip(x, -m.full_scale, m.full_scale)
 
     def _warmup_curve(self, k: NDArray[np.int64]) -> Array:
-        """(1 - exp(-t / tau)) / (1 - exp(-WARMUP_SPAN_S / tau)) at t = k / rate (:class:`ErrorModel`)."""
-        tau = self.model.warmup_tau_s
-        return np.expm1(-(k / self.rate_hz) / tau) / math.expm1(-WARMUP_SPAN_S / tau)
+        return warmup_curve(k / self.rate_hz, self.model.warmup_tau_s)
+
+
+def warmup_curve(t: Array, tau_s: float) -> Array:
+    """(1 - exp(-t / tau)) / (1 - exp(-WARMUP_SPAN_S / tau)) at ``t`` s after power-on (:class:`ErrorModel`)."""
+    return np.expm1(-t / tau_s) / math.expm1(-WARMUP_SPAN_S / tau_s)
+
+
+def die_rise_c(gyr: ErrorModel) -> float:
+    """How far the die warms in the first WARMUP_SPAN_S: the gyroscope's warm-up over the data sheet's
+    steepest slope, :data:`ZRO_TEMPCO_DPS_PER_C` (the smallest rise that can move it so far)."""
+    return math.degrees(gyr.warmup) / ZRO_TEMPCO_DPS_PER_C
+
+
+def die_temperature(gyr: ErrorModel, t: Array) -> Array:
+    """The IMU die's temperature (degC) at ``t`` s after power-on: :data:`ROOM_C` warming along the
+    gyroscope's warm-up curve by :func:`die_rise_c` (one lumped thermal mass, :class:`ErrorModel`)."""
+    if not gyr.warmup:
+        return np.full(np.shape(t), ROOM_C)
+    return ROOM_C + die_rise_c(gyr) * warmup_curve(t, gyr.warmup_tau_s)
 
 
 class _MagneticProcess:
@@ -647,7 +696,8 @@ class Simulator:
     flex_sensor: FlexSensor = FlexSensor()
     flex_circuit: FlexCircuit = FlexCircuit()
     earth_field_ut: Vec3 = EARTH_FIELD_UT
-    seed: int = 0
+    seed: int = 0  # the board's errors (and the room's field)
+    power_on: int = 0  # which power-on of that board: the unexplained share of its warm-up (ErrorModel)
 
     def _pose(self, t: Array) -> tuple[Array, Array]:
         """The root's orientations and the hinge angles (M, L - 1) at ``t`` (M,), checked."""
@@ -740,7 +790,7 @@ class SampleStream:
         n = len(sim.chain.sensors)
         shapes = {"gyr": (n, 3), "acc": (n, 3), "mag": (n, 3), "flex": ()}
         self._processes = {kind: _ErrorProcess(getattr(sim.errors, kind), shapes[kind], rate_hz,
-                                               sim.seed, i) for i, kind in enumerate(_KINDS)}
+                                               sim.seed, i, sim.power_on) for i, kind in enumerate(_KINDS)}
         self._magnetic = _MagneticProcess(sim.errors.magnetic, n, sim.seed)
         self._flex = _FlexProcess(sim.errors.flex_dynamics, sim.flex_sensor.bent_deg, rate_hz, sim.seed)
 
@@ -762,7 +812,7 @@ class SampleStream:
                        p["mag"].measure(mag.field(truth), k), circuit.adc(p["flex"].measure(volts, k)),
                        truth, {kind: q.offset for kind, q in p.items()},
                        {kind: q.scale for kind, q in p.items()}, {kind: q.warmup for kind, q in p.items()},
-                       mag.hard_iron, mag.soft_iron, flex)
+                       mag.hard_iron, mag.soft_iron, flex, die_temperature(self.sim.errors.gyr, truth.t))
 
 
 @dataclass
@@ -796,7 +846,8 @@ class SimulatedSource:
         data, s = self._stream.block(b * self.block, (b + 1) * self.block), self.sensor
         return [SensorReading(acc=tuple(data.acc[n, s].tolist()), gyr=tuple(data.gyr[n, s].tolist()),
                               mag=tuple(data.mag[n, s].tolist()), flex_deg=float(data.truth.flex_deg[n]),
-                              flex_adc=int(data.flex_adc[n]), q=tuple(data.truth.q_sensors[n, s].tolist()))
+                              flex_adc=int(data.flex_adc[n]), q=tuple(data.truth.q_sensors[n, s].tolist()),
+                              die_c=float(data.die_c[n]))
                 for n in range(len(data.t))]
 
 

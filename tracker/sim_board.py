@@ -16,14 +16,15 @@ from dataclasses import dataclass
 from typing import Callable
 
 from . import protocol as P
-from .board import BoardSettings, FaultInjector, Faults, acc_lsb, counts, gyr_lsb, hello
+from .board import BoardSettings, FaultInjector, Faults, acc_lsb, counts, gyr_lsb, hello, temp_due
 from .sim import STENCIL_REACH_S, Simulator
 
 RATE_HZ = BoardSettings.rate_hz  # the firmware's defaults
 ACC_FS_G, GYR_FS_DPS = BoardSettings.acc_fs_g, BoardSettings.gyr_fs_dps
 BLOCK = 800  # samples the simulator computes ahead at once (4 s): a change of the motion within them has the rest computed again
-Counts = tuple[tuple[int, int, int], tuple[int, int, int], tuple[int, int, int], int]  # acc, gyr, mag, flags
-# (the raw frame's flags word: the flex ADC, the full scales and the magnetometer's valid bit)
+Counts = tuple[tuple[int, int, int], tuple[int, int, int], tuple[int, int, int], int, int]
+# acc, gyr, mag, flags (the raw frame's flags word: the flex ADC, the full scales and the magnetometer's
+# valid bit) and the die's TEMP_OUT
 
 
 @dataclass
@@ -58,6 +59,7 @@ class SimBoard:
         self._first = 0  # sample index of _readings[0]
         self._next = 0  # the next sample index to send
         self._seq = 0
+        self._raw_since_temp = 0  # RAW frames sent since the last TEMP frame (tracker.board.temp_due)
 
     def hello(self) -> bytes:
         """The hello frame the firmware sends at power-up (streaming raw frames)."""
@@ -75,13 +77,15 @@ class SimBoard:
             if self.faults.stalled(ts):
                 self.tally.samples_stalled += 1  # a frozen loop takes no sample: no sequence number
                 continue
-            out += self._send(self._frame(k, ts))
+            acc, gyr, mag, flags, temp = self._reading(k)
+            t_us = round(ts * 1e6) & 0xFFFFFFFF
+            if temp_due(self._raw_since_temp, self.rate_hz):
+                out += self.injector.apply(P.encode_temp(t_us, temp))
+                self._raw_since_temp = 0
+            self._raw_since_temp += 1
+            seq, self._seq = self._seq, (self._seq + 1) & 0xFFFF
+            out += self._send(P.encode_raw_counts(t_us, seq, acc, gyr, mag, flags))
         return bytes(out)
-
-    def _frame(self, k: int, t: float) -> bytes:
-        seq, self._seq = self._seq, (self._seq + 1) & 0xFFFF
-        acc, gyr, mag, flags = self._reading(k)
-        return P.encode_raw_counts(round(t * 1e6) & 0xFFFFFFFF, seq, acc, gyr, mag, flags)
 
     def _send(self, frame: bytes) -> bytes:
         wire = self.injector.apply(frame)
@@ -118,5 +122,6 @@ class SimBoard:
         gyr = counts(data.gyr[:, 0], gyr_lsb(GYR_FS_DPS)).tolist()
         mag = counts(data.mag[:, 0], P.MAG_UT_PER_COUNT).tolist()
         flags = P.raw_flags(0, ACC_FS_G, GYR_FS_DPS)
-        return [((a[0], a[1], a[2]), (g[0], g[1], g[2]), (m[0], m[1], m[2]), flags | (f & P.FLEX_ADC_MASK))
-                for a, g, m, f in zip(acc, gyr, mag, data.flex_adc.tolist())]
+        temps = [P.temp_counts(c) for c in data.die_c.tolist()]
+        return [((a[0], a[1], a[2]), (g[0], g[1], g[2]), (m[0], m[1], m[2]), flags | (f & P.FLEX_ADC_MASK), c)
+                for a, g, m, f, c in zip(acc, gyr, mag, data.flex_adc.tolist(), temps)]

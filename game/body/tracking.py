@@ -97,8 +97,9 @@ class Tracking:
             return BiasResult(False, "no raw samples arrived (is the board streaming raw data?)",
                               np.zeros(3), np.zeros(3), 0.0), []
         t = np.array([s.t for s in raw])
-        gyr = np.array([s.gyr for s in raw]) - self.board.gyro_bias
         acc = np.array([s.acc for s in raw])
+        die = [s.die_c for s in raw]
+        gyr = self.board.apply_arrays(acc, [s.gyr for s in raw], None, None if None in die else die).gyr
         result = startup_bias(t, gyr, acc)
         if isinstance(self.filter, DefaultFilter):  # the filter that estimates the bias keeps the best known
             bias = as_vec(result.bias) if result.ok else self.filter.get_state().bias

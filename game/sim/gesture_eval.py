@@ -32,7 +32,6 @@ import numpy as np
 from tracker import protocol as P
 from tracker.calibration import BoardCalibration
 from tracker.maker_sim import SimulatedMaker, calibrate
-from tracker.sim import Simulator
 from tracker.sim_board import RATE_HZ, SimBoard
 
 from ..body.avatar import Avatar, BodySettings
@@ -67,8 +66,7 @@ class TrialResult:
 
 def board_stream(sim_session: Session, profile: PlayerProfile, seed: int) -> list[P.RawSample]:
     """The session as the host receives it: simulated, quantised, framed, sent, decoded."""
-    sim = Simulator(profile.chain(), sim_session.motion, profile.sensor_errors(),
-                    profile.flex_sensor(), seed=seed)
+    sim = profile.simulator(sim_session.motion, seed)
     samples_due = round(sim_session.duration_s * RATE_HZ)
     wire = SimBoard(sim, rate_hz=RATE_HZ).run_until((samples_due - 1) / RATE_HZ)
     decoder = P.FrameDecoder()

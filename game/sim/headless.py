@@ -61,7 +61,6 @@ without_window()
 
 from tracker import compiled, protocol as P, signals  # noqa: E402
 from tracker.board import Faults  # noqa: E402
-from tracker.sim import Simulator  # noqa: E402
 from tracker.sim_board import SimBoard  # noqa: E402
 
 from ..body.controls import SampleInput  # noqa: E402
@@ -248,8 +247,7 @@ def _play(config: MatchConfig, progress: Callable[[str], None] | None) -> dict:
     wall0 = time.perf_counter()
     profile, seed = config.profile, config.seed
     bot = Bot(DIFFICULTIES[config.difficulty], profile, seed)
-    sim = Simulator(profile.chain(), bot.script.motion, profile.sensor_errors(),
-                    profile.flex_sensor(), seed=seed)
+    sim = profile.simulator(bot.script.motion, seed)
     board = SimBoard(sim, bot.script.take_edits, replace(config.faults, seed=seed))
     wire = PtyWire() if config.pty else MemoryWire()
     seen = Observed()

@@ -82,7 +82,7 @@ from tracker.fusion.qmath import as_quat, as_vec
 from tracker.sim import (
     TYPICAL_FLEX_CREEP_PCT, TYPICAL_FLEX_HYSTERESIS_PCT, TYPICAL_GYRO_BIAS_DPS, TYPICAL_GYRO_WARMUP_DPS,
     TYPICAL_MAG_DISTURBANCE_UT, TYPICAL_MAG_HARD_IRON_UT, TYPICAL_MAG_SOFT_IRON_PCT, Chain, Motion,
-    SensorErrors, arm_chain, realistic_errors)
+    SensorErrors, Simulator, arm_chain, realistic_errors)
 from tracker.userjson import read_json
 
 from ..body.avatar import Wearing
@@ -90,6 +90,7 @@ from ..body.avatar import Wearing
 Array = NDArray[np.float64]
 Interval = tuple[float, float]
 
+PLAY_POWER_ON = 1  # play is the board's second power-on; the maker's calibrations had others (tracker.maker_sim)
 LAUNCH_THRESHOLD_DEG = 25.0  # a launch happens when the straightening elbow crosses this
 IDEAL_MOUNT = np.asarray(Wearing().mount)  # q_LB: the bone frame in the ideally worn sensor's
 _Z = (0.0, 0.0, 1.0)
@@ -237,6 +238,13 @@ class PlayerProfile:
 
     def flex_sensor(self) -> FlexSensor:
         return FlexSensor(straight_ohm=self.flex_straight_ohm, bent_ohm=self.flex_bent_ohm)
+
+    def simulator(self, motion: Motion, seed: int) -> Simulator:
+        """The board this player wears, in ``motion``: its errors drawn from ``seed`` (the board the
+        simulated maker calibrated, :func:`game.sim.gesture_eval.maker_calibration`), at the power-on
+        of play (:data:`PLAY_POWER_ON`)."""
+        return Simulator(self.chain(), motion, self.sensor_errors(), self.flex_sensor(), seed=seed,
+                         power_on=PLAY_POWER_ON)
 
     def sensor_errors(self) -> SensorErrors:
         """The board's errors (:func:`tracker.sim.realistic_errors`) with this profile's figures."""

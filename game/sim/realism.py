@@ -29,7 +29,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from tracker.sim import Simulator
 
 from .motion_model import PlayerProfile, Script
 
@@ -97,7 +96,7 @@ def simulated_stats(profile: PlayerProfile = PlayerProfile(), seconds: float = 6
     """The windows of ``profile``'s player holding the arm hanging still for ``seconds``:
     tremor, sway and the board on the soft tissue, measured with the board's errors."""
     motion = Script(profile, seed).motion  # no segment: the arm hangs, the elbow relaxed
-    sim = Simulator(profile.chain(), motion, profile.sensor_errors(), profile.flex_sensor(), seed=seed)
+    sim = profile.simulator(motion, seed)
     data = sim.simulate(seconds, RATE_HZ)
     return windows(data.gyr[:, 0], data.acc[:, 0], data.t, ((0.0, seconds),))
 

@@ -19,7 +19,7 @@ designed to be worn.
 from __future__ import annotations
 
 from tracker.motion import SensorReading
-from tracker.sim import Simulator, SimulatedSource
+from tracker.sim import SimulatedSource
 
 from .motion_model import PlayerProfile, Script
 
@@ -34,8 +34,7 @@ class VirtualPlayer:
     def __init__(self, rate_hz: float = 200.0, profile: PlayerProfile = PlayerProfile(), seed: int = 0) -> None:
         self.script = Script(profile, seed)
         self._draws = self.script.rng()
-        sim = Simulator(profile.chain(), self.script.motion, profile.sensor_errors(), profile.flex_sensor(),
-                        seed=seed)
+        sim = profile.simulator(self.script.motion, seed)
         self._source = SimulatedSource(sim, rate_hz)
 
     def reading(self, t: float) -> SensorReading:

@@ -82,7 +82,7 @@ def csv_rows(samples: list[P.RawSample], run: int = 0) -> list[list[str]]:
     """Rows as CsvRecorder writes them."""
     return [[repr(v) if v is not None else "" for v in (
         s.t, s.t_us, s.seq, *s.acc, *s.gyr, *(s.mag or (None,) * 3), s.flex_adc, s.acc_fs_g,
-        s.gyr_fs_dps, s.host_t)] + [str(run)] for s in samples]
+        s.gyr_fs_dps, s.host_t, s.die_c)] + [str(run)] for s in samples]
 
 
 # ----------------------------------------------------------------- case 5: a board restart
@@ -309,6 +309,18 @@ def test_csvs_written_before_the_run_column_still_read(tmp_path):
     path = csv_file(tmp_path / "old.csv", [r[:-1] for r in csv_rows(samples)], columns=RAW_COLUMNS[:-1])
     _, got = read_csv(path)
     assert [s.acc_counts for s in got] == [s.acc_counts for s in samples]
+
+
+def test_csvs_keep_the_die_temperature_and_those_written_before_it_still_read(tmp_path):
+    samples = [s._replace(temp_counts=1335 - k) for k, s in enumerate(run_samples(20, 0))]
+    _, got = read_csv(csv_file(tmp_path / "new.csv", csv_rows(samples)))
+    assert [s.temp_counts for s in got] == [1335 - k for k in range(20)]  # exact: degC back to counts
+    old_columns = [c for c in RAW_COLUMNS if c != "die_c"]
+    rows = [r[:16] + r[17:] for r in csv_rows(samples)]
+    _, got = read_csv(csv_file(tmp_path / "old.csv", rows, columns=old_columns))
+    assert [s.temp_counts for s in got] == [None] * 20 and [s.t for s in got] == [s.t for s in samples]
+    _, got = read_csv(csv_file(tmp_path / "older.csv", [r[:-1] for r in rows], columns=old_columns[:-1]))
+    assert len(got) == 20
 
 
 # ----------------------------------------------------------------- case 12: non-files

@@ -92,11 +92,12 @@ def test_records_say_when_in_local_time_and_old_files_without_them_still_load(tm
     (tmp_path / "b1.json").write_text(json.dumps(old))
     cal = C.load("b1", tmp_path)
     assert cal.procedures == () and cal.acc_offset.tolist() == [0.1, 0, 0]
-    assert C.done_text(cal) == "accelerometer not calibrated, magnetometer not calibrated"
+    assert C.done_text(cal) == ("accelerometer not calibrated, magnetometer not calibrated, "
+                                "gyroscope warm-up not calibrated")
 
 
 @pytest.mark.parametrize("procedures, words", [
-    ({"gyro": {"done_at": "2025-01-01T10:00:00+01:00"}}, "unknown procedure 'gyro' (known: accel, mag)"),
+    ({"gyro": {"done_at": "2025-01-01T10:00:00+01:00"}}, "unknown procedure 'gyro' (known: accel, mag, thermal)"),
     ({"accel": {"done_at": "yesterday"}}, "accel: done_at must be a date and time"),
     ({"accel": {"residual_m_s2": 0.1}}, "procedures: accel must be an object with done_at"),
     ({"mag": {"done_at": "2025-01-01T10:00:00", "residual_ut": True}}, "procedures: mag: residual_ut must be a number"),
@@ -147,7 +148,7 @@ def test_load_for_hello_says_what_it_loaded_or_why_not(tmp_path):
     cal, notice = C.load_for_hello(HELLO, tmp_path)
     assert fields_of(cal, "accel") == fields_of(fitted("accel", 0.2), "accel")
     assert notice == (f"board calibration loaded from {tmp_path / 'imu-71.json'} "
-                      f"(accelerometer {rec.when}, magnetometer not calibrated)")
+                      f"(accelerometer {rec.when}, magnetometer not calibrated, gyroscope warm-up not calibrated)")
     cal, notice = C.load_for_hello(HELLO, tmp_path, virtual=True)  # the real board's file is not the virtual's
     assert cal.procedures == () and "virtual-imu-71.json: no calibration saved" in notice
 

@@ -81,7 +81,7 @@ class Runs:
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory) -> Runs:
     base = tmp_path_factory.mktemp("calibrate")
-    homes = {name: base / name for name in ("both", "noisy", "magnet", "short", "faces")}
+    homes = {name: base / name for name in ("both", "noisy", "magnet", "short", "faces", "warm")}
     folder = boards(homes["both"])
     folder.mkdir(parents=True)
     (folder / f"{BOARD}.json").write_bytes(DAMAGED)  # damaged before both procedures start
@@ -102,6 +102,7 @@ def runs(tmp_path_factory) -> Runs:
         "magnet": ("magnet", "calibrate", "mag", "--virtual", "--magnet", "3"),
         "short": ("short", "calibrate", "mag", "--virtual", "--seconds", "4"),
         "faces": ("faces", "calibrate", "accel", "--virtual", "--seconds", "3"),
+        "warm": ("warm", "calibrate", "thermal", "--virtual", "--seconds", "3"),
     }
     procs = {name: start(homes[spec[0]], *spec[1:]) for name, spec in specs.items()}
     results = {}
@@ -193,7 +194,10 @@ def test_refusals_are_one_clear_line_and_change_no_file(runs):
     refusal(runs.results["short"], "calibrate mag: after 4 s, too little coverage", "nothing was saved")
     refusal(runs.results["faces"], "calibrate accel", "of 6 faces captured in 3 s", "still to do",
             "nothing was saved")
-    for name in ("short", "faces"):
+    refusal(runs.results["warm"], "calibrate thermal: only 3 s of the board lying still (the fit needs 120)",
+            "nothing was saved")
+    assert "die 22.0" in runs.results["warm"].stderr  # the virtual board's TEMP frames: a cold die
+    for name in ("short", "faces", "warm"):
         assert not boards(runs.homes[name]).exists()
 
 

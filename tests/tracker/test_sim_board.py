@@ -13,11 +13,16 @@ def _simulator(seed: int) -> Simulator:
 
 
 def _frames_one_by_one(seed: int, n: int) -> bytes:
-    """Each sample read on its own (the virtual board's source), quantised and framed as the firmware does."""
+    """Each sample read on its own (the virtual board's source), quantised and framed as the firmware does:
+    a TEMP frame before the first RAW frame and before every 200th (once a second, PROTOCOL.md sec. 4.3)."""
     source, s = SimulatedSource(_simulator(seed), rate_hz=200.0), BoardSettings()
-    return b"".join(P.encode_raw(quantise(source.reading(k / 200.0), k / 200.0, round(k * 5000), k,
-                                          s.acc_fs_g, s.gyr_fs_dps))
-                    for k in range(n))
+    out = b""
+    for k in range(n):
+        raw = quantise(source.reading(k / 200.0), k / 200.0, round(k * 5000), k, s.acc_fs_g, s.gyr_fs_dps)
+        if k % 200 == 0:
+            out += P.encode_temp(raw.t_us, raw.temp_counts)
+        out += P.encode_raw(raw)
+    return out
 
 
 def test_the_boards_frames_are_each_sample_quantised_and_framed_whatever_the_block():

@@ -1,0 +1,191 @@
+"""The gyroscope's warm-up calibration: its bias as a line in the die's temperature, a streaming procedure.
+
+Why. The MPU-9250's zero-rate output moves with its temperature (+-30 deg/s
+over -40 to +85 degC, PS-MPU-9250A-01 table 1). A board warms by a few degC
+after power-on and on a warm arm, so its bias drifts by up to 4 deg/s over
+ten minutes (:class:`tracker.sim.ErrorModel`). While the arm is raised,
+part of that drift turns about the vertical, where gravity cannot see it,
+and the heading walks away; the fusion can only learn it late. The die's
+temperature comes with the samples (the TEMP frame, PROTOCOL.md sec. 4.3),
+so the part of the drift that is a function of it can be predicted instead.
+
+The procedure. The maker powers the board up cold (unplugged for ten
+minutes or more) and leaves it lying still while it warms, ``duration_s``
+(10 minutes). Fed one raw sample at a time, it averages the gyroscope and
+the temperature over each second of the board's clock; a second in which the
+board moved is left out (:func:`tracker.calibration.window_motion`, VQF's rest
+thresholds about the second's mean: Laidig and Seel, Information Fusion 91,
+2023, sec. 3.2). At the end it fits each axis's bias as a straight line in
+the temperature by least squares,
+
+    b(T) = b0 + c (T - T_ref),   T_ref the mean temperature of the still seconds,
+
+the linear temperature model of MEMS gyroscope compensation (a few degC
+lie well within a line's reach; Liu, Liu, Xu and Zhao 2018,
+doi 10.1007/978-3-030-03766-6_2, fit second-order models over tens of
+degrees). c and T_ref are what the board's calibration keeps
+(:class:`tracker.calibration.BoardCalibration`'s ``gyro_thermal`` and
+``gyro_thermal_ref_c``); b0 is not: the start-up hold and the fusion learn
+the bias of the day, and the line predicts how it moves from there.
+
+Refused, with the reason: samples without a temperature (a firmware before
+the TEMP frame), fewer than ``min_still_s`` still seconds, a rise below
+``min_rise_c`` (the board was warm already, or its warm-up is too small to
+measure: below 0.24 deg/s at the data sheet's steepest slope, nothing worth
+predicting; ``warmed`` tells this refusal from the others). What no calibration can know: the
+share of a warm-up that differs from one warming to the next (thermal
+hysteresis, about a quarter; :class:`tracker.sim.ErrorModel`). The fusion's
+bias tracking learns that in play (:mod:`tracker.fusion.default`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .calibration import DEG, RestParams, window_motion
+from .protocol import RawSample
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class ThermalParams:
+    """Settings of :class:`ThermalProcedure` (module docstring)."""
+
+    duration_s: float = 600.0  # how long the board warms on the table
+    min_still_s: float = 120.0  # still seconds the fit needs
+    min_rise_c: float = 1.0  # the least warming that gives a slope worth keeping
+    still: RestParams = RestParams(gyr_max_rate=math.inf)  # a seconds' stillness; the bias may be large
+
+
+@dataclass(frozen=True)
+class ThermalResult:
+    """The fit: ``slope`` (rad/s per degC, per axis) about ``ref_c``; ``rise_c`` the warming seen,
+    ``residual_dps`` the RMS of the still seconds about their lines; ``problem`` why it was refused
+    ("" when it was not)."""
+
+    slope: Array = field(default_factory=lambda: np.zeros(3))
+    ref_c: float = 0.0
+    rise_c: float = 0.0
+    residual_dps: float = 0.0
+    seconds: int = 0
+    problem: str = ""
+    warmed: bool = True  # False: refused for a rise below the minimum (nothing to predict, or a warm start)
+
+    @property
+    def ok(self) -> bool:
+        return not self.problem
+
+
+@dataclass(frozen=True)
+class ThermalStatus:
+    """What the procedure shows: time on the table, still seconds, the die's temperature and its rise
+    so far, why the latest second was not still (or ""), whether it is done, what went wrong."""
+
+    elapsed_s: float = 0.0
+    still_s: int = 0
+    die_c: float | None = None
+    rise_c: float = 0.0
+    moved: str = ""
+    done: bool = False
+    problem: str = ""
+
+    @property
+    def message(self) -> str:
+        """One line for the maker."""
+        if self.problem:
+            return self.problem
+        if self.die_c is None:
+            return "waiting for the board's samples"
+        head = f"leave the board still while it warms: die {self.die_c:.2f} degC (+{self.rise_c:.2f})"
+        return head + (f"; this second was left out: {self.moved}" if self.moved else "")
+
+
+def fit_thermal(die_c: Array, gyr: Array, params: ThermalParams = ThermalParams()) -> ThermalResult:
+    """Each axis's bias as a line in the temperature (module docstring), from still seconds' means:
+    ``die_c`` (N,) degC and ``gyr`` (N, 3) rad/s. Refused below the params' minimums."""
+    n = len(die_c)
+    if n < params.min_still_s:
+        return ThermalResult(seconds=n, problem=f"only {n} s of the board lying still (the fit needs "
+                                                f"{params.min_still_s:.0f}): keep it still and run this again")
+    rise = float(np.max(die_c) - np.min(die_c))
+    if rise < params.min_rise_c:
+        return ThermalResult(rise_c=rise, seconds=n, warmed=False, problem=(
+            f"the board warmed by only {rise:.2f} degC (at least {params.min_rise_c:.1f} is needed): "
+            "unplug it for ten minutes so that it starts cold, then run this again"))
+    ref = float(np.mean(die_c))
+    x = np.column_stack([np.ones(n), die_c - ref])
+    coef, *_ = np.linalg.lstsq(x, gyr, rcond=None)
+    residual = gyr - x @ coef
+    return ThermalResult(coef[1], ref, rise, float(np.sqrt(np.mean(residual**2))) / DEG, n)
+
+
+class ThermalProcedure:
+    """The warm-up calibration, fed one raw sample at a time (module docstring)."""
+
+    def __init__(self, params: ThermalParams = ThermalParams()) -> None:
+        self.params = params
+        self._t0: float | None = None  # board time of the first sample
+        self._second: list[tuple[float, tuple[float, float, float], tuple[float, float, float]]] = []
+        self._index = -1  # the second being gathered
+        self._means: list[tuple[float, Array]] = []  # still seconds: (die degC, gyro rad/s)
+        self._first_c: float | None = None
+        self._status = ThermalStatus()
+
+    @property
+    def status(self) -> ThermalStatus:
+        return self._status
+
+    def interrupted(self) -> None:
+        """The cable was pulled: the second being gathered is dropped; the board's clock starts again
+        when it is back, and the seconds gathered so far are kept (the temperature tells where they lie)."""
+        self._second, self._index, self._t0 = [], -1, None
+
+    def feed(self, sample: RawSample) -> ThermalStatus:
+        """Take one sample; the status after it."""
+        if self._status.done:
+            return self._status
+        die = sample.die_c
+        if die is None:
+            self._status = ThermalStatus(done=True, problem=(
+                "the board sends no temperature (its firmware predates the TEMP frame, PROTOCOL.md "
+                "sec. 4.3): flash the current firmware (firmware/README.md)"))
+            return self._status
+        if self._t0 is None:
+            self._t0 = sample.t - self._status.elapsed_s
+        if self._first_c is None:
+            self._first_c = die
+        elapsed = sample.t - self._t0
+        index = math.floor(elapsed)
+        moved = self._status.moved
+        if index != self._index:
+            moved = self._close_second()
+            self._index = index
+        self._second.append((die, sample.gyr, sample.acc))
+        done = elapsed >= self.params.duration_s
+        self._status = ThermalStatus(elapsed, len(self._means), die, die - self._first_c, moved, done)
+        return self._status
+
+    def _close_second(self) -> str:
+        """Keep the second just gathered if the board lay still in it; why not, or ""."""
+        rows, self._second = self._second, []
+        if len(rows) < 2:
+            return ""
+        gyr = np.array([r[1] for r in rows])
+        why = window_motion(gyr, np.array([r[2] for r in rows]), self.params.still)
+        if why is None:
+            self._means.append((float(np.mean([r[0] for r in rows])), gyr.mean(axis=0)))
+        return why or ""
+
+    def result(self) -> ThermalResult:
+        """The fit of the still seconds gathered (:func:`fit_thermal`), or why there is none."""
+        if self._status.problem:
+            return ThermalResult(problem=self._status.problem)
+        self._close_second()
+        die = np.array([m[0] for m in self._means])
+        gyr = np.array([m[1] for m in self._means]).reshape(-1, 3)
+        return fit_thermal(die, gyr, self.params)
