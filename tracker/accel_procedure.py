@@ -32,6 +32,12 @@ in the window form (:func:`tracker.calibration.window_motion`: every sample
 within the thresholds of the window's mean), which
 :func:`~tracker.calibration.six_pose_calibration` applies to its poses too.
 
+The turns. Between the poses the board is turned by 90 and 180 deg, and the
+gyroscope's integral over each turn against gravity's directions before and
+after gives the gyroscope's three sensitivities (:mod:`tracker.gyro_scale`):
+:meth:`AccelProcedure.calibration` keeps them with the accelerometer's fit. A
+pulled cable or a stretch lost on the link breaks the chain of turns there.
+
 Faces. The face up is the sensor axis nearest the measured specific force
 (:func:`tracker.calibration.pose_label`); a board leaning more than
 ``max_tilt`` from it (20 deg, as :class:`tracker.calibration.PoseParams`)
@@ -43,15 +49,22 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
+from numpy.typing import NDArray
 
-from .calibration import (DEG, Pose, PoseParams, RestDetector, RestParams, SixPoseResult, pose_label,
-                          six_pose_calibration, window_motion)
+from .calibration import (DEG, BoardCalibration, Pose, PoseParams, RestDetector, RestParams, SixPoseResult,
+                          pose_label, six_pose_calibration, window_motion)
+from .gyro_scale import SensitivityFit, SensitivityParams, Turn, fit_sensitivity, integrate_turn
 from .protocol import RawSample
 
 FACES: tuple[str, ...] = ("+z", "-z", "+x", "-x", "+y", "-y")  # the order the maker is asked for
+Array = NDArray[np.float64]
+
+
+def _unit(v: Array) -> Array:
+    return v / np.linalg.norm(v)
 
 
 def _still_params() -> RestParams:
@@ -128,6 +141,10 @@ class AccelProcedure:
         self._last_t: float | None = None
         self._moved = ""  # why the last hold broke, shown until a new hold is under way
         self._left = True  # the board has left the face captured last
+        self._since: list[tuple[float, float, float, float]] = []  # t and rates since the last pose (the turns)
+        self._linked = False  # _since runs unbroken from the last pose captured
+        self._last_pose: tuple[Array, Array] | None = None  # its mean rate (the bias there) and specific force
+        self._turns: list[Turn] = []
         self._status = AccelStatus(FACES[0], None, 0.0, (), f"put {FACES[0]} up, flat on the table", False)
 
     @property
@@ -151,6 +168,7 @@ class AccelProcedure:
         """
         self._restart()
         self._last_t = None
+        self._linked = False
         self._hold.face = None
         self._moved = ""
         asked = self._asked()
@@ -177,6 +195,8 @@ class AccelProcedure:
             self._detector.update(gyr, acc, gap)
         else:
             self._restart()
+            self._linked = False
+        self._follow_turn(t, gyr)
         if face != self._hold.face:
             self._broken(f"the board left {self._hold.face}", t)
             self._hold.face = face
@@ -192,6 +212,14 @@ class AccelProcedure:
                 held = 0.0
         self._status = self._describe(face, held, tilt)
         return self._status
+
+    def _follow_turn(self, t: float, gyr: tuple[float, float, float]) -> None:
+        """Keep the rates since the last pose while they run unbroken (and not too long)."""
+        if not self._linked or len(self._since) >= SensitivityParams().max_turn_samples:
+            self._since.clear()
+            self._linked = False
+            return
+        self._since.append((t, gyr[0], gyr[1], gyr[2]))
 
     def _keep(self, t: float, acc: tuple[float, float, float], gyr: tuple[float, float, float]) -> None:
         """Add a still sample to the hold, dropping those older than ``hold_s``."""
@@ -222,6 +250,13 @@ class AccelProcedure:
         if moved is None:
             self._poses[face] = pose
             self._moved, self._left = "", False
+            rate, acc = pose.gyr.mean(axis=0), pose.acc.mean(axis=0)
+            if self._linked and self._last_pose is not None and len(self._since) >= 2:
+                x = np.array(self._since)
+                rotation, jacobian = integrate_turn(x[:, 0], x[:, 1:], self._last_pose[0], rate)
+                self._turns.append(Turn(rotation, jacobian, self._last_pose[1], acc))
+            self._last_pose, self._linked = (rate, acc), True
+            self._since = [(t, *h.gyr[-1])]
         else:
             self._moved = f"the board moved during the pose ({moved})"
         h.clear()
@@ -262,3 +297,22 @@ class AccelProcedure:
             raise ValueError(f"the accelerometer calibration is not finished: not all six faces captured "
                              f"({', '.join(missing)} missing)")
         return six_pose_calibration([self._poses[f] for f in FACES], params=self.params.pose)
+
+    def gyro_fit(self, result: SixPoseResult) -> SensitivityFit:
+        """The gyroscope's sensitivities from the turns between the poses (:mod:`tracker.gyro_scale`),
+        gravity's directions calibrated by ``result``."""
+        cal = self.calibration_of(result)
+        return fit_sensitivity([replace(tr, before=_unit(cal.apply_arrays(tr.before, tr.before).acc),
+                                        after=_unit(cal.apply_arrays(tr.after, tr.after).acc)) for tr in self._turns])
+
+    @staticmethod
+    def calibration_of(result: SixPoseResult, board_id: str = "default") -> BoardCalibration:
+        """The accelerometer's fields of a six-pose ``result``."""
+        return BoardCalibration(board_id, acc_offset=result.offset, acc_scale=result.scale,
+                                acc_misalignment=result.misalignment)
+
+    def calibration(self, result: SixPoseResult, board_id: str = "default") -> tuple[BoardCalibration, SensitivityFit]:
+        """This procedure's fields: the accelerometer's from ``result``, the gyroscope's sensitivities
+        from the turns (kept at 1 where their fit was refused: the fit says why)."""
+        gyro = self.gyro_fit(result)
+        return replace(self.calibration_of(result, board_id), gyro_scale=np.diag(gyro.scale)), gyro

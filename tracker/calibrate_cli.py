@@ -30,7 +30,7 @@ import json
 import sys
 import threading
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import IO, TYPE_CHECKING, Callable, Generic, Iterator, Protocol, Sequence, TypeVar
 
 import numpy as np
@@ -66,7 +66,7 @@ FIGURES = {"residual_m_s2": "residual {:.4f} m/s^2", "residual_ut": "residual {:
            "strength_ut": "field {:.1f} uT", "dip_deg": "dip {:.1f} deg", "rise_c": "warmed {:.2f} degC",
            "slope_dps_per_c": "slope {:.3f} deg/s per degC", "residual_dps": "residual {:.3f} deg/s"}
 # The figures --json reports against the simulated board's truth (tracker.maker_sim.calibration_errors).
-TRUTH_ERRORS = {"accel": ("acc_offset_error_mg", "acc_scale_error_pct"),
+TRUTH_ERRORS = {"accel": ("acc_offset_error_mg", "acc_scale_error_pct", "gyro_scale_error_pct"),
                 "mag": ("mag_hard_iron_error_ut", "mag_soft_iron_error_pct"),
                 "thermal": ("gyro_thermal_error_dps_per_c",)}
 
@@ -257,13 +257,16 @@ def finish_accel(board_id: str, procedure: AccelProcedure, status: AccelStatus,
     result = procedure.result()
     if not result.ok:
         raise CalibrationRefused(f"{result.message}; nothing was saved")
-    fitted = C.BoardCalibration(board_id, acc_offset=result.offset, acc_scale=result.scale,
-                                acc_misalignment=result.misalignment)
+    fitted, gyro = procedure.calibration(result, board_id)
     values = {"faces": list(status.captured), "acc_offset": fitted.acc_offset.tolist(),
               "acc_scale": fitted.acc_scale.tolist(), "acc_misalignment": fitted.acc_misalignment.tolist(),
-              "residual_m_s2": result.residual}
+              "residual_m_s2": result.residual, "gyro_scale": gyro.scale.tolist(), "gyro_turns": gyro.turns,
+              "gyro_residual_deg": gyro.residual_deg}
+    gyro_line = (f"gyroscope: sensitivities ({_numbers(gyro.scale, '{:.4f}')}) from {gyro.turns} turns between the "
+                 f"poses, residual {gyro.residual_deg:.3f} deg") if gyro.ok else \
+        f"gyroscope: sensitivities not measured ({gyro.problem}); kept at 1"
     return fitted, C.ProcedureRecord.now("accel", {"residual_m_s2": result.residual}), values, \
-        [f"accelerometer: {result.message}"]
+        [f"accelerometer: {result.message}", gyro_line]
 
 
 # ----------------------------------------------------------------- magnetometer
@@ -349,7 +352,7 @@ def finish_thermal(board_id: str, procedure: ThermalProcedure, status: ThermalSt
     result = procedure.result()
     if not result.ok:
         raise CalibrationRefused(f"{result.problem}; nothing was saved")
-    fitted = C.BoardCalibration(board_id, gyro_thermal=result.slope, gyro_thermal_ref_c=result.ref_c)
+    fitted = C.BoardCalibration(board_id, gyro_thermal=result.slope, gyro_thermal_ref_c=np.array(result.ref_c))
     slope = np.degrees(result.slope)
     figures = {"rise_c": result.rise_c, "slope_dps_per_c": float(np.linalg.norm(slope)),
                "residual_dps": result.residual_dps}
@@ -368,8 +371,7 @@ class VirtualMaker:
     """The simulated board and maker of ``--virtual``.
 
     The board's errors are :func:`tracker.sim.realistic_errors` with the figures
-    given (None: its typical ones) and the accelerometer's sensitivity
-    tolerance, as :func:`tracker.maker_sim.maker_errors` gives a fresh board.
+    given (None: its typical ones).
     The maker's slips: a magnet brought near at ``magnet_at`` s, the board
     bumped at ``nudges``, the first face laid down twice (``repeat_face``).
     """
@@ -385,11 +387,10 @@ class VirtualMaker:
 
     def maker(self) -> SimulatedMaker:
         from .maker_sim import Magnet, SimulatedMaker
-        from .sim import SCALE_TOLERANCE, realistic_errors
+        from .sim import realistic_errors
         figures = {"mag_hard_iron_ut": self.hard_iron_ut, "mag_soft_iron_pct": self.soft_iron_pct,
                    "mag_disturbance_ut": self.room_ut}
         errors = realistic_errors(noise_scale=self.noise_scale, **{k: v for k, v in figures.items() if v is not None})
-        errors = replace(errors, acc=replace(errors.acc, scale_max=SCALE_TOLERANCE))
         magnet = Magnet(self.magnet_at, self.magnet_at + 10.0) if self.magnet_at is not None else None
         return SimulatedMaker(errors, seed=self.seed, magnet=magnet, nudges=self.nudges,
                               repeat_face=self.repeat_face)

@@ -864,12 +864,12 @@ _BOARD_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,79}")
 # The maker's procedures and the fields each fills (``armtracker calibrate accel|mag``, the game's
 # Board setup); saving one keeps the other's fields. In the order they are shown.
 PROCEDURES: dict[str, tuple[str, ...]] = {
-    "accel": ("acc_offset", "acc_scale", "acc_misalignment"),
+    "accel": ("acc_offset", "acc_scale", "acc_misalignment", "gyro_scale"),
     "mag": ("mag_hard_iron", "mag_soft_iron"),
     "thermal": ("gyro_thermal", "gyro_thermal_ref_c"),
 }
 PROCEDURE_TITLES: dict[str, str] = {"accel": "accelerometer", "mag": "magnetometer", "thermal": "gyroscope warm-up"}
-_ADDED_LATER = ("gyro_thermal", "gyro_thermal_ref_c")  # fields files saved before them lack: defaults
+_ADDED_LATER = ("gyro_thermal", "gyro_thermal_ref_c", "gyro_scale")  # fields older files lack: defaults
 _FIGURE_NAME = re.compile(r"[a-z][a-z0-9_]{0,39}")
 MAX_DAMAGED_COPIES = 20  # <name>.damaged, <name>.damaged.2, ... (then a save is refused)
 
@@ -965,6 +965,7 @@ class _PlainCalibration:
     mag_soft_iron: Rows | None
     gyro_thermal: Vec | None  # None when there is no thermal calibration
     gyro_thermal_ref_c: float
+    gyro_scale: Rows | None
 
     @classmethod
     def of(cls, cal: BoardCalibration) -> _PlainCalibration:
@@ -972,7 +973,7 @@ class _PlainCalibration:
         return cls(_floats(cal.gyro_bias), _floats(cal.acc_offset), _floats(cal.acc_scale),
                    _matrix(cal.acc_misalignment), _floats(cal.mag_hard_iron),
                    _matrix(cal.mag_soft_iron), _floats(cal.gyro_thermal) if cal.gyro_thermal.any() else None,
-                   float(cal.gyro_thermal_ref_c))
+                   float(cal.gyro_thermal_ref_c), _matrix(cal.gyro_scale))
 
 
 def _floats(v: Array) -> Vec:
@@ -1001,10 +1002,11 @@ class BoardCalibration:
     """Everything calibrated for one board; the defaults correct nothing.
 
     :meth:`apply_arrays` computes
-        gyr_cal = gyr - gyro_bias - gyro_thermal (T - gyro_thermal_ref_c)
+        gyr_cal = gyro_scale @ (gyr - gyro_bias - gyro_thermal (T - gyro_thermal_ref_c))
                   (the hand-tracking paper, eq. 2, with the bias's linear temperature model of a thermal
                   calibration, :mod:`tracker.thermal`; T the die's temperature, the term left out
-                  for a sample without one)
+                  for a sample without one; gyro_scale the sensitivities the six-pose procedure's
+                  turns measure, :mod:`tracker.gyro_scale`)
         acc_cal = acc_misalignment @ (acc_scale * (acc - acc_offset))   (Tedaldi 2014)
         mag_cal = mag_soft_iron @ (mag - mag_hard_iron)          (hard/soft iron)
     in rad/s, m/s^2 and uT. ``board_id`` names the board's file (see :func:`board_id_of`).
@@ -1023,6 +1025,7 @@ class BoardCalibration:
     mag_soft_iron: Array = field(default_factory=lambda: np.eye(3))
     gyro_thermal: Array = field(default_factory=lambda: np.zeros(3))  # rad/s per degC of the die
     gyro_thermal_ref_c: Array = field(default_factory=lambda: np.zeros(()))  # degC where it is zero
+    gyro_scale: Array = field(default_factory=lambda: np.eye(3))  # true rate per reading (its diagonal fitted)
     procedures: tuple[ProcedureRecord, ...] = ()
     _plain: _PlainCalibration = field(init=False, repr=False)  # the arrays as floats, for apply
 
@@ -1071,7 +1074,7 @@ class BoardCalibration:
         g = np.asarray(gyr, dtype=np.float64) - self.gyro_bias
         if die_c is not None:
             g = g - (np.asarray(die_c, dtype=np.float64)[..., None] - self.gyro_thermal_ref_c) * self.gyro_thermal
-        return Corrected(a @ self.acc_misalignment.T, g, m)
+        return Corrected(a @ self.acc_misalignment.T, g @ self.gyro_scale.T, m)
 
     def apply(self, sample: RawSample) -> Corrected:
         """Correct one raw sample (its SI readings): :meth:`apply_arrays` on plain floats."""
@@ -1085,7 +1088,7 @@ class BoardCalibration:
         if mag is not None:
             (mx, my, mz), (hx, hy, hz) = mag, c.mag_hard_iron
             mag = _transform(c.mag_soft_iron, mx - hx, my - hy, mz - hz)
-        return Corrected(acc, (gx - bx, gy - by, gz - bz), mag)
+        return Corrected(acc, _transform(c.gyro_scale, gx - bx, gy - by, gz - bz), mag)
 
     def to_json(self) -> dict:
         """JSON-ready fields, with the file format and version."""

@@ -62,7 +62,7 @@ from .mag_procedure import MagProcedure, MagResult, MagStatus
 from .magfit import MagFitError
 from .motion import SensorReading
 from .protocol import MAG_UT_PER_COUNT, STANDARD_GRAVITY, RawSample, temp_counts
-from .sim import (SCALE_TOLERANCE, Chain, LinkSpec, Motion, SampleStream, SensorErrors, SensorSpec, Simulator,
+from .sim import (Chain, LinkSpec, Motion, SampleStream, SensorErrors, SensorSpec, Simulator,
                   die_rise_c, realistic_errors)
 from .sim_board import ACC_FS_G, GYR_FS_DPS
 from .thermal import ThermalParams, ThermalProcedure, ThermalResult, ThermalStatus
@@ -90,26 +90,15 @@ FACE_AXES = {"+x": (1.0, 0.0, 0.0), "-x": (-1.0, 0.0, 0.0), "+y": (0.0, 1.0, 0.0
 def extreme_errors() -> SensorErrors:
     """The catalogue's extremes (``game/profiles/worst_plausible.json``: 10 deg/s of gyroscope bias
     warming by 4 deg/s, 200 uT of hard iron, 20 % of soft iron, 40 uT of room disturbance, twice
-    the data sheet's noise), with the accelerometer's +-3 % sensitivity tolerance (:func:`maker_errors`)."""
-    base = realistic_errors(gyro_bias_dps=10.0, gyro_warmup_dps=4.0, mag_hard_iron_ut=200.0,
+    the data sheet's noise)."""
+    return realistic_errors(gyro_bias_dps=10.0, gyro_warmup_dps=4.0, mag_hard_iron_ut=200.0,
                             mag_soft_iron_pct=20.0, mag_disturbance_ut=40.0, noise_scale=2.0)
-    return replace(base, acc=replace(base.acc, scale_max=SCALE_TOLERANCE))
 
 
 def maker_errors(errors: SensorErrors | None = None) -> SensorErrors:
-    """A freshly made board's errors: ``errors`` (:func:`tracker.sim.realistic_errors` by default).
-
-    With no ``errors`` given, the accelerometer also gets the data sheet's
-    sensitivity tolerance, +-3 % (PS-MPU-9250A-01 rev. 1.1, table 2;
-    :data:`tracker.sim.SCALE_TOLERANCE`), which ``realistic_errors`` leaves
-    out because the game assumes a calibrated board: this is what the six-pose
-    calibration is for. Drawing the scale leaves every other draw as it was
-    (each kind of error has its own random stream, :mod:`tracker.sim`).
-    """
-    if errors is not None:
-        return errors
-    base = realistic_errors()
-    return replace(base, acc=replace(base.acc, scale_max=SCALE_TOLERANCE))
+    """A freshly made board's errors: ``errors``, :func:`tracker.sim.realistic_errors` by default (its
+    accelerometer's sensitivity within the data sheet's +-3 %: what the six-pose calibration is for)."""
+    return errors if errors is not None else realistic_errors()
 
 
 @dataclass(frozen=True)
@@ -386,7 +375,8 @@ class SimulatedMaker:
         D b + o_m, and with M = D S the soft iron is the symmetric W with W^T W
         proportional to (M M^T)^-1, normalised to det W = 1 as the fit is
         (:mod:`tracker.magfit`: only W up to a scale and a rotation is observable):
-        W = |det M|^(1/3) (M M^T)^(-1/2). gyro_bias: the offset at power-on. gyro_thermal: this
+        W = |det M|^(1/3) (M M^T)^(-1/2). gyro_bias: the offset at power-on; gyro_scale: the
+        inverse of the gyroscope's drawn sensitivities. gyro_thermal: this
         power-on's warm-up over the die's rise (:func:`tracker.sim.die_temperature`), about the
         temperature at power-on.
         """
@@ -400,7 +390,8 @@ class SimulatedMaker:
         return BoardCalibration(gyro_bias=data.offset["gyr"][0], acc_offset=data.offset["acc"][0],
                                 acc_scale=1.0 / data.scale["acc"][0],
                                 mag_hard_iron=d * data.hard_iron[0] + o_m, mag_soft_iron=0.5 * (w + w.T),
-                                gyro_thermal=slope, gyro_thermal_ref_c=float(data.die_c[0]))
+                                gyro_thermal=slope, gyro_thermal_ref_c=np.array(data.die_c[0]),
+                                gyro_scale=np.diag(1.0 / data.scale["gyr"][0]))
 
 
 def calibration_errors(fitted: BoardCalibration, truth: BoardCalibration) -> dict[str, float]:
@@ -410,7 +401,8 @@ def calibration_errors(fitted: BoardCalibration, truth: BoardCalibration) -> dic
     ``acc_scale_error_pct``: the worst axis's fitted scale over the true, less one, in %;
     ``mag_hard_iron_error_ut``: the length of the hard iron's error; ``mag_soft_iron_error_pct``:
     the largest element of the soft iron's error (the matrices are near the identity), in %;
-    ``gyro_thermal_error_dps_per_c``: the length of the warm-up slope's error, deg/s per degC.
+    ``gyro_thermal_error_dps_per_c``: the length of the warm-up slope's error, deg/s per degC;
+    ``gyro_scale_error_pct``: the worst axis's fitted sensitivity over the true, less one, in %.
     """
     return {
         "acc_offset_error_mg": float(np.max(np.abs(fitted.acc_offset - truth.acc_offset))) / STANDARD_GRAVITY * 1e3,
@@ -418,6 +410,7 @@ def calibration_errors(fitted: BoardCalibration, truth: BoardCalibration) -> dic
         "mag_hard_iron_error_ut": float(np.linalg.norm(fitted.mag_hard_iron - truth.mag_hard_iron)),
         "mag_soft_iron_error_pct": float(np.max(np.abs(fitted.mag_soft_iron - truth.mag_soft_iron))) * 100.0,
         "gyro_thermal_error_dps_per_c": math.degrees(float(np.linalg.norm(fitted.gyro_thermal - truth.gyro_thermal))),
+        "gyro_scale_error_pct": float(np.max(np.abs(np.diag(fitted.gyro_scale) / np.diag(truth.gyro_scale) - 1.0))) * 100.0,
     }
 
 
@@ -494,11 +487,13 @@ def calibrate(maker: SimulatedMaker, thermal: bool = True) -> tuple[BoardCalibra
     """The procedures on ``maker``'s board, accelerometer first (its result serves the dip), then the
     magnetometer, then (``thermal``) the warm-up: the calibration found (the defaults where a procedure
     failed) and the failures' lines."""
-    accel = run_maker(AccelProcedure(), maker)
+    six = AccelProcedure()
+    accel = run_maker(six, maker)
     cal, problems = BoardCalibration(), []
     if isinstance(accel.result, SixPoseResult) and not accel.error:
-        r = accel.result
-        cal = BoardCalibration(acc_offset=r.offset, acc_scale=r.scale, acc_misalignment=r.misalignment)
+        cal, gyro = six.calibration(accel.result)
+        if not gyro.ok:
+            problems.append(f"the gyroscope's sensitivities were not measured: {gyro.problem}")
     else:
         problems.append(f"six-pose calibration failed: {accel.error}")
     mag = run_maker(MagProcedure(accel=cal), maker)
@@ -510,7 +505,7 @@ def calibrate(maker: SimulatedMaker, thermal: bool = True) -> tuple[BoardCalibra
     if thermal:
         warm = warm_up(maker)
         if isinstance(warm.result, ThermalResult) and not warm.error:
-            cal = replace(cal, gyro_thermal=warm.result.slope, gyro_thermal_ref_c=warm.result.ref_c)
+            cal = replace(cal, gyro_thermal=warm.result.slope, gyro_thermal_ref_c=np.array(warm.result.ref_c))
         elif not (isinstance(warm.result, ThermalResult) and not warm.result.warmed):  # (a board that
             # barely warms has nothing to predict: no failure)
             problems.append(f"warm-up calibration failed: {warm.error}")

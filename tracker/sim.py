@@ -371,7 +371,11 @@ def realistic_errors(gyro_bias_dps: float = TYPICAL_GYRO_BIAS_DPS, noise_scale: 
                      flex_nonlinearity_pct: float = TYPICAL_FLEX_NONLINEARITY_PCT) -> SensorErrors:
     """A real board's errors from figures in a player profile's units (deg/s, uT, percent).
 
-    :func:`mpu9250` (data-sheet noise, offsets, 16-bit counts) with the
+    :func:`mpu9250` (data-sheet noise, offsets, 16-bit counts, and the
+    sensitivities drawn within the data sheet's +-3 % for the gyroscope and the
+    accelerometer, PS-MPU-9250A-01 tables 1 and 2: the maker's six-pose
+    calibration measures the accelerometer's; no procedure measures the
+    gyroscope's, which needs turns of known size) with the
     gyroscope's offsets drawn within +-``gyro_bias_dps`` and warming by
     ``gyro_warmup_dps`` over 10 minutes (:class:`ErrorModel`), the IMU's noise
     densities times ``noise_scale``, the board's and the room's magnetic
@@ -387,7 +391,7 @@ def realistic_errors(gyro_bias_dps: float = TYPICAL_GYRO_BIAS_DPS, noise_scale: 
     more), a flex sensor with 4 % hysteresis, 3 % creep and 2 % nonlinearity
     (Saggio et al. 2016).
     """
-    base = mpu9250()
+    base = mpu9250(scale=True)
     circuit = FlexCircuit()
     gyr = replace(base.gyr, noise_density=base.gyr.noise_density * noise_scale,
                   offset_max=math.radians(gyro_bias_dps), warmup=math.radians(gyro_warmup_dps),

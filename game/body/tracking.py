@@ -98,8 +98,9 @@ class Tracking:
                               np.zeros(3), np.zeros(3), 0.0), []
         t = np.array([s.t for s in raw])
         acc = np.array([s.acc for s in raw])
-        die = [s.die_c for s in raw]
-        gyr = self.board.apply_arrays(acc, [s.gyr for s in raw], None, None if None in die else die).gyr
+        known = all(s.temp_counts is not None for s in raw)
+        die = np.array([s.die_c for s in raw], dtype=float) if known else None
+        gyr = self.board.apply_arrays(acc, [s.gyr for s in raw], None, die).gyr
         result = startup_bias(t, gyr, acc)
         if isinstance(self.filter, DefaultFilter):  # the filter that estimates the bias keeps the best known
             bias = as_vec(result.bias) if result.ok else self.filter.get_state().bias

@@ -64,10 +64,11 @@ def fresh_samples(recent: deque[RawSample], last: RawSample | None) -> list[RawS
     return out
 
 
-def accel_fit(board_id: str, result: SixPoseResult) -> tuple[BoardCalibration, ProcedureRecord]:
-    """The accelerometer's fields of a six-pose result, and the procedure's record (now)."""
-    fitted = BoardCalibration(board_id, acc_offset=result.offset, acc_scale=result.scale,
-                              acc_misalignment=result.misalignment)
+def accel_fit(board_id: str, procedure: AccelProcedure, result: SixPoseResult
+              ) -> tuple[BoardCalibration, ProcedureRecord]:
+    """The six-pose procedure's fields (the accelerometer's and the gyroscope's sensitivities), and its
+    record (now)."""
+    fitted, _ = procedure.calibration(result, board_id)
     return fitted, ProcedureRecord.now(ACCEL, {"residual_m_s2": result.residual})
 
 
@@ -213,7 +214,7 @@ class BoardSetup:
         self.figures = [f"residual {result.residual:.3f} m/s^2 over the six poses",
                         "offset " + ", ".join(f"{v * 1000 / P.STANDARD_GRAVITY:+.0f}" for v in result.offset) + " mg",
                         "scale " + ", ".join(f"{v:.4f}" for v in result.scale)]
-        self._save(ACCEL_DONE, *accel_fit(self.board_id, result))
+        self._save(ACCEL_DONE, *accel_fit(self.board_id, self.accel, result))
 
     def _finish_mag(self) -> None:
         try:

@@ -28,15 +28,18 @@ G = 9.80665  # m/s^2 per g, as the figures count mg
 def test_calibration_errors_are_the_issues_four_figures_worked_by_hand():
     truth = BoardCalibration(acc_offset=[0.1, -0.2, 0.3], acc_scale=[1.0, 1.02, 0.98],
                              mag_hard_iron=[10.0, 20.0, 30.0],
-                             mag_soft_iron=[[1.0, 0.05, 0.0], [0.05, 0.9, 0.0], [0.0, 0.0, 1.1]])
+                             mag_soft_iron=[[1.0, 0.05, 0.0], [0.05, 0.9, 0.0], [0.0, 0.0, 1.1]],
+                             gyro_scale=np.diag([1.0, 0.98, 1.03]))
     fitted = BoardCalibration(acc_offset=[0.1, -0.2 + 5e-3 * G, 0.3 - 2e-3 * G], acc_scale=[1.0, 1.02 * 1.003, 0.98],
                               mag_hard_iron=[13.0, 24.0, 30.0],
-                              mag_soft_iron=[[1.0, 0.07, 0.0], [0.05, 0.9, 0.0], [0.0, 0.0, 1.1 - 0.01]])
+                              mag_soft_iron=[[1.0, 0.07, 0.0], [0.05, 0.9, 0.0], [0.0, 0.0, 1.1 - 0.01]],
+                              gyro_scale=np.diag([1.0, 0.98, 1.03 * 0.999]))
     errors = calibration_errors(fitted, truth)
     assert errors["acc_offset_error_mg"] == pytest.approx(5.0)  # the worst axis, y
     assert errors["acc_scale_error_pct"] == pytest.approx(0.3)
     assert errors["mag_hard_iron_error_ut"] == pytest.approx(5.0)  # |(3, 4, 0)|
     assert errors["mag_soft_iron_error_pct"] == pytest.approx(2.0)  # the (0, 1) element
+    assert errors["gyro_scale_error_pct"] == pytest.approx(0.1)  # z
 
 
 def _noise_free(**kw: float):

@@ -1,0 +1,105 @@
+"""The gyroscope's sensitivities from the turns between the six-pose calibration's faces."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from tracker import protocol as P
+from tracker.accel_procedure import AccelProcedure
+from tracker.calibration import BoardCalibration
+from tracker.gyro_scale import Turn, fit_sensitivity, integrate_turn, rotate_back
+from tracker.maker_sim import SimulatedMaker, calibrate, extreme_errors, run_maker
+from tracker.sim import realistic_errors
+
+DEG = math.pi / 180.0
+
+
+def test_rotate_back_is_the_transposed_rotation_of_scipy():
+    rng = np.random.default_rng(1)
+    theta, u = rng.normal(size=(20, 3)) * 1.5, rng.normal(size=(20, 3))
+    expected = Rotation.from_rotvec(theta).inv().apply(u)
+    np.testing.assert_allclose(rotate_back(theta, u), expected, atol=1e-12)
+
+
+RATE = 200.0
+
+
+def _turns(scale: np.ndarray) -> list[Turn]:
+    """The six-pose procedure's turns as a maker makes them: tip the board over an edge (180 or 90 deg
+    about a board axis, in a second), then turn it on the table to a new heading (about the axis now
+    up, half a second), read by a gyroscope whose true rates are ``scale`` times its readings; bias 0.
+    Gravity before and after each from the true rotations (each piece turns about one fixed axis, so
+    the true turn is the product of the pieces' rotations)."""
+    g = np.array([0.0, 0.0, 1.0])
+    out = []
+    for axis, angle, heading in (((1, 0, 0), 180, 30), ((0, 1, 0), 90, -20), ((1, 0, 0), 180, 10),
+                                 ((0, 0, 1), 90, 15), ((1, 0, 0), -180, -5)):
+        tip = np.radians(angle) * np.array(axis, float)
+        up_after = Rotation.from_rotvec(tip).inv().apply(g)  # the axis up once tipped, in the board
+        head = np.radians(heading) * up_after / np.linalg.norm(up_after)
+        rates = np.concatenate([np.tile(tip, (int(RATE), 1)), np.tile(head / 0.5, (int(RATE / 2), 1))])
+        rates = np.concatenate([np.zeros((5, 3)), rates, np.zeros((5, 3))])  # still before and after
+        t = np.arange(len(rates)) / RATE
+        rotation, jacobian = integrate_turn(t, rates / scale, np.zeros(3), np.zeros(3))
+        after = (Rotation.from_rotvec(tip) * Rotation.from_rotvec(head)).inv().apply(g)
+        out.append(Turn(rotation, jacobian, g, after))
+        g = after
+    return out
+
+
+def test_the_sensitivities_of_turns_worked_by_hand():
+    """A gyroscope reading 3 % low on x, 2 % high on y and 1 % low on z (true rates 1.03, 0.98 and 1.01
+    times its readings): the fit finds those factors, the turn on the table composed after the tip
+    (not summed with it), and the heading turns that gravity does not see change nothing."""
+    scale = np.array([1.03, 0.98, 1.01])
+    fit = fit_sensitivity(_turns(scale))
+    assert fit.ok and fit.turns == 5 and fit.residual_deg < 0.01
+    np.testing.assert_allclose(fit.scale, scale, atol=2e-4)
+
+
+def test_too_few_turns_or_a_bumped_one_is_refused_and_the_sensitivities_stay_one():
+    turns = _turns(np.ones(3))
+    short = fit_sensitivity(turns[:2])
+    assert not short.ok and "only 2 turns" in short.problem and np.all(short.scale == 1)
+    tr = turns[1]
+    knock = np.cross(tr.after, np.cross(tr.before, tr.after))  # out of the turn's plane: no sensitivity explains it
+    turns[1] = Turn(tr.rotation, tr.jacobian, tr.before,
+                    Rotation.from_rotvec(np.radians(5.0) * knock / np.linalg.norm(knock)).apply(tr.after))
+    bumped = fit_sensitivity(turns)
+    assert not bumped.ok and "bumped" in bumped.problem and np.all(bumped.scale == 1)
+
+
+@pytest.mark.parametrize("errors", [realistic_errors(), extreme_errors()], ids=["typical", "extreme"])
+def test_the_six_pose_procedure_measures_the_boards_sensitivities(errors):
+    """On simulated boards drawn within the data sheet's +-3 %: the simulator's own scale is the truth."""
+    for seed in range(3):
+        maker = SimulatedMaker(errors, seed)
+        six = AccelProcedure()
+        run = run_maker(six, maker)
+        cal, fit = six.calibration(run.result)
+        truth = maker._simulator.stream(200.0).block(0, 1).scale["gyr"][0]
+        assert fit.ok and fit.turns >= 5, fit.problem
+        assert np.max(np.abs(np.diag(cal.gyro_scale) * truth - 1)) < 0.002  # of up to 3 %
+        assert np.max(np.abs(truth - 1)) > 0.005  # there was something to find
+
+
+def test_the_calibration_applies_the_sensitivities_alike_one_sample_or_many():
+    cal = BoardCalibration(gyro_bias=[0.01, 0.0, -0.02], gyro_scale=np.diag([0.97, 1.02, 1.0]),
+                           gyro_thermal=[0.001, 0, 0], gyro_thermal_ref_c=25.0)
+    s = P.RawSample(0.0, 0, 0, (10, 20, 2048), (1000, -500, 250), None, 0, temp_counts=P.temp_counts(30.0))
+    one = cal.apply(s).gyr
+    many = cal.apply_arrays(np.array([s.acc]), np.array([s.gyr]), None, [s.die_c]).gyr[0]
+    np.testing.assert_allclose(one, many, rtol=1e-12)
+    by_hand = np.diag([0.97, 1.02, 1.0]) @ (np.array(s.gyr) - [0.01, 0.0, -0.02]
+                                            - np.array([0.001, 0, 0]) * (s.die_c - 25.0))
+    np.testing.assert_allclose(one, by_hand, rtol=1e-12)
+
+
+def test_the_simulated_maker_calibrates_the_sensitivities_with_the_accelerometer():
+    cal, problems = calibrate(SimulatedMaker(realistic_errors(), 5), thermal=False)
+    assert problems == [] and not np.array_equal(cal.gyro_scale, np.eye(3))
+    assert np.count_nonzero(cal.gyro_scale - np.diag(np.diag(cal.gyro_scale))) == 0  # the diagonal alone
