@@ -83,7 +83,7 @@ class AccelProcedureParams:
     may lean from a face. ``moved_after_s``: a hold broken after this long is
     reported as "the board moved" (a shorter one is just the board being set
     down). ``max_gap_s``: samples further apart than this (a stretch lost on
-    the link) break the hold.
+    the link) break the hold. ``turns``: the gyroscope's fit from the turns between the poses.
     """
 
     hold_s: float = 2.0
@@ -91,6 +91,7 @@ class AccelProcedureParams:
     pose: PoseParams = field(default_factory=PoseParams)
     moved_after_s: float = 0.3
     max_gap_s: float = 0.25
+    turns: SensitivityParams = field(default_factory=SensitivityParams)  # the gyroscope's fit from the turns
 
 
 @dataclass(frozen=True)
@@ -215,7 +216,7 @@ class AccelProcedure:
 
     def _follow_turn(self, t: float, gyr: tuple[float, float, float]) -> None:
         """Keep the rates since the last pose while they run unbroken (and not too long)."""
-        if not self._linked or len(self._since) >= SensitivityParams().max_turn_samples:
+        if not self._linked or len(self._since) >= self.params.turns.max_turn_samples:
             self._since.clear()
             self._linked = False
             return
@@ -302,8 +303,12 @@ class AccelProcedure:
         """The gyroscope's sensitivities from the turns between the poses (:mod:`tracker.gyro_scale`),
         gravity's directions calibrated by ``result``."""
         cal = self.calibration_of(result)
-        return fit_sensitivity([replace(tr, before=_unit(cal.apply_arrays(tr.before, tr.before).acc),
-                                        after=_unit(cal.apply_arrays(tr.after, tr.after).acc)) for tr in self._turns])
+
+        def gravity(acc: Array) -> Array:
+            return _unit(cal.apply_arrays(acc, np.zeros(3)).acc)
+
+        return fit_sensitivity([replace(tr, before=gravity(tr.before), after=gravity(tr.after)) for tr in self._turns],
+                               self.params.turns)
 
     @staticmethod
     def calibration_of(result: SixPoseResult, board_id: str = "default") -> BoardCalibration:
