@@ -510,8 +510,11 @@ def show_board(cal: C.BoardCalibration) -> list[str]:
         lines.append(f"  {title:13s}  {record.when if record else 'date unknown'}"
                      + (f"  {figures}" if figures else ""))
         if name == "accel":
+            gyro = np.diag(cal.gyro_scale)
+            measured = f"({_numbers(gyro, '{:.4f}')})" if not np.array_equal(cal.gyro_scale, np.eye(3)) \
+                else "not measured"
             lines.append(f"  {'':13s}  offset ({_numbers(cal.acc_offset, '{:+.4f}')}) m/s^2, "
-                         f"scale ({_numbers(cal.acc_scale, '{:.5f}')})")
+                         f"scale ({_numbers(cal.acc_scale, '{:.5f}')}); gyroscope sensitivities {measured}")
         elif name == "thermal":
             lines.append(f"  {'':13s}  bias slope ({_numbers(np.degrees(cal.gyro_thermal), '{:+.4f}')}) deg/s "
                          f"per degC about {float(cal.gyro_thermal_ref_c):.2f} degC")

@@ -218,6 +218,7 @@ def test_show_prints_what_is_saved_and_when(runs):
     assert lines[1].split() == ["accelerometer", *accel.when.split(), "residual",
                                 f"{dict(accel.figures)['residual_m_s2']:.4f}", "m/s^2"]
     assert f"offset ({' '.join(f'{x:+.4f}' for x in cal.acc_offset)}) m/s^2" in lines[2]
+    assert lines[2].endswith(f"gyroscope sensitivities ({' '.join(f'{x:.4f}' for x in np.diag(cal.gyro_scale))})")
     assert lines[3].split()[:3] == ["magnetometer", *mag.when.split()]
     assert f"hard iron ({' '.join(f'{x:+.2f}' for x in cal.mag_hard_iron)}) uT" in lines[4]
     shown = json.loads(run(home, "calibrate", "show", "--json").stdout)

@@ -103,3 +103,13 @@ def test_the_simulated_maker_calibrates_the_sensitivities_with_the_accelerometer
     cal, problems = calibrate(SimulatedMaker(realistic_errors(), 5), thermal=False)
     assert problems == [] and not np.array_equal(cal.gyro_scale, np.eye(3))
     assert np.count_nonzero(cal.gyro_scale - np.diag(np.diag(cal.gyro_scale))) == 0  # the diagonal alone
+
+
+def test_calibrate_show_says_whether_the_sensitivities_were_measured():
+    from tracker.calibrate_cli import show_board
+    from tracker.calibration import ProcedureRecord
+    record = ProcedureRecord.now("accel", {"residual_m_s2": 0.01})
+    refused = BoardCalibration("imu-71", acc_offset=[0.1, 0.0, 0.0], procedures=(record,))
+    assert any(line.endswith("gyroscope sensitivities not measured") for line in show_board(refused))
+    measured = BoardCalibration("imu-71", gyro_scale=np.diag([1.02, 0.99, 1.0]), procedures=(record,))
+    assert any(line.endswith("gyroscope sensitivities (1.0200 0.9900 1.0000)") for line in show_board(measured))
