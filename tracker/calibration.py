@@ -861,7 +861,7 @@ def six_pose_calibration(poses: Sequence[Pose], extra: Sequence[Pose] = (),
 FORMAT = "energyball board calibration"
 VERSION = 1
 _BOARD_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,79}")
-# The maker's procedures and the fields each fills (``armtracker calibrate accel|mag``, the game's
+# The maker's procedures and the fields each fills (``armtracker calibrate accel|mag|thermal``, the game's
 # Board setup); saving one keeps the other's fields. In the order they are shown.
 PROCEDURES: dict[str, tuple[str, ...]] = {
     "accel": ("acc_offset", "acc_scale", "acc_misalignment", "gyro_scale"),

@@ -79,13 +79,15 @@ def board_stream(sim_session: Session, profile: PlayerProfile, seed: int) -> lis
 def maker_calibration(profile: PlayerProfile, seed: int) -> tuple[BoardCalibration, str | None]:
     """The calibrations a maker does once per board (README), simulated on the same board.
 
-    Exactly what ``armtracker calibrate accel`` and ``calibrate mag`` run: the
-    six-pose procedure (:class:`tracker.accel_procedure.AccelProcedure`) and
-    the magnetometer procedure (:class:`tracker.mag_procedure.MagProcedure`),
-    fed the board's quantised samples while a simulated maker
-    (:class:`tracker.maker_sim.SimulatedMaker`, the board's errors drawn from
-    the same seed as the session's) follows their prompts: lays the board on
-    each face in turn, then tumbles it through every orientation. No player
+    Exactly what ``armtracker calibrate accel``, ``calibrate mag`` and ``calibrate
+    thermal`` run: the six-pose procedure (:class:`tracker.accel_procedure.AccelProcedure`,
+    with the gyroscope's sensitivities from its turns), the magnetometer procedure
+    (:class:`tracker.mag_procedure.MagProcedure`) and the warm-up
+    (:class:`tracker.thermal.ThermalProcedure`), fed the board's quantised samples
+    while a simulated maker (:class:`tracker.maker_sim.SimulatedMaker`, the board's
+    errors drawn from the same seed as the session's) follows their prompts: lays the
+    board on each face in turn, tumbles it through every orientation, then leaves it
+    still from a cold power-up of its own (:func:`tracker.maker_sim.warm_up`). No player
     wears the board: no tremor, sway or strap reaches it. Returns the
     calibration and None, or what it has and why a procedure failed (a
     reported figure, never an exception).

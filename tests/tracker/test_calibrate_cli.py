@@ -1,4 +1,4 @@
-"""`armtracker calibrate accel|mag|show` and `monitor`'s use of the board file, run as a maker runs them.
+"""`armtracker calibrate accel|mag|thermal|show` and `monitor`'s use of the board file, run as a maker runs them.
 
 Each procedure runs through the real command in its own process, on a virtual
 board served on a real pty and read through tracker.link, with the simulated
