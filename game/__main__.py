@@ -399,11 +399,11 @@ def run(args: argparse.Namespace) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     """The command line ``argv`` (None: this process's own, which then ends with the command)."""
     args = build_parser().parse_args(argv)
-    with signals.interrupts(ignore_after=argv is None):
-        try:
+    try:  # outside the handlers' block: a signal while they are being installed is caught too
+        with signals.interrupts(ignore_after=argv is None):
             return run(args)
-        except KeyboardInterrupt as e:  # Ctrl-C, SIGTERM or SIGHUP
-            return signals.exit_status(e)
+    except KeyboardInterrupt as e:  # Ctrl-C, SIGTERM or SIGHUP
+        return signals.exit_status(e)
 
 
 if __name__ == "__main__":

@@ -539,11 +539,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--seeds", type=Ranged(int, 1, 100), default=4, help="boards per kind of board")
     parser.add_argument("--json", action="store_true", help="print JSON")
     args = parser.parse_args(argv)
-    with signals.interrupts(ignore_after=argv is None):
-        try:
+    try:  # outside the handlers' block: a signal while they are being installed is caught too
+        with signals.interrupts(ignore_after=argv is None):
             report = recovered_errors(args.seeds)
-        except KeyboardInterrupt as e:
-            return signals.exit_status(e)
+    except KeyboardInterrupt as e:
+        return signals.exit_status(e)
     if args.json:
         print(json.dumps(report, indent=2))
     else:

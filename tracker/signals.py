@@ -112,20 +112,35 @@ def interrupts(ignore_after: bool = False) -> Iterator[Received]:
     path, which a second Ctrl-C must not cut short. ``ignore_after`` is for a
     process that exits when the block ends (a command line run as a program):
     the signals stay ignored, so none arriving in its last instants turns into
-    a traceback. Otherwise the handlers in force before come back.
+    a traceback. Otherwise the handlers in force before come back, and a signal
+    that arrived while they were being put back (the block already done) is
+    handed to them, as :func:`deferred` does. A signal while the handlers are
+    being installed raises from entering the block, so a command catches
+    ``KeyboardInterrupt`` around the ``with``, not inside it.
     """
     received = Received()
     if not _main_thread():
         yield received
         return
+    closing = Received()  # the first signal while the handlers are being put back, the block done
 
     def handler(signum: int, frame: FrameType | None) -> None:
-        if received.signum is None:
-            received.signum = signum
-            raise Interrupted(signum)
+        if received.signum is not None or closing.signum is not None:
+            return
+        if ending:  # raising now would escape from the restoring loop, outside the caller's handling
+            closing.signum = signum
+            return
+        received.signum = signum
+        raise Interrupted(signum)
 
-    with _handlers(handler, ignore_after):
-        yield received
+    ending = False
+    with _handlers(handler, ignore_after) as saved:
+        try:
+            yield received
+        finally:
+            ending = True
+    if closing.signum is not None and not ignore_after:  # the handler back in force acts on it
+        _deliver(closing.signum, saved.get(closing.signum))
 
 
 @contextlib.contextmanager

@@ -112,6 +112,35 @@ def test_only_the_first_signal_interrupts(tmp_path):
     assert received.signum == signal.SIGINT
 
 
+@pytest.mark.parametrize("ignore_after", [False, True])
+def test_a_signal_while_the_handlers_are_put_back_never_escapes(monkeypatch, ignore_after):
+    """The block is done when a SIGHUP arrives between putting back SIGINT's handler and SIGHUP's
+    (seen in CI: a traceback from the restoring loop). It must not raise there; the handler in
+    force before takes it, or, for a program on its way out, nothing does."""
+    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    heard: list[int] = []
+    signal.signal(signal.SIGHUP, lambda signum, frame: heard.append(signum))
+    real_signal = signal.signal
+    restoring: list[int] = []
+
+    def hup_while_restoring(signum, handler):
+        if restoring == []:  # the first handler put back is SIGINT's; ours still holds SIGHUP
+            restoring.append(signum)
+            send(signal.SIGHUP)
+        return real_signal(signum, handler)
+
+    try:
+        with interrupts(ignore_after=ignore_after) as received:
+            monkeypatch.setattr(signal, "signal", hup_while_restoring)
+        monkeypatch.undo()
+        assert restoring == [signal.SIGINT] and received.signum is None
+        assert heard == ([] if ignore_after else [signal.SIGHUP])
+    finally:
+        monkeypatch.undo()
+        for s, h in before.items():
+            signal.signal(s, h)
+
+
 def test_deferred_hands_the_held_signal_to_the_handler_before_it():
     heard: list[int] = []
     old = signal.signal(signal.SIGHUP, lambda signum, frame: heard.append(signum))
