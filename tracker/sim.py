@@ -2,7 +2,8 @@
 
 The body is the chain of rigid links on hinges of Inertial Sensor Based Solution
 for Finger Motion Tracking (Computers 9(2):40, 2020; sec. 2.1) made 3-D: the
-root link turns freely (3 DoF) about its joint, which stays at the world origin;
+root link turns freely (3 DoF) about its joint, which stays at the world origin
+unless the motion moves it (``Motion.shoulder``: a shoulder that rises with the arm, a trunk that bounces as it walks);
 every further link hangs on a hinge at the far end of the link before it. A
 link's frame sits at its own joint, coincides with its parent's frame when the
 hinge angle is zero (the finger-tracking paper, sec. 2.1), and the link runs
@@ -10,7 +11,7 @@ hinge angle is zero (the finger-tracking paper, sec. 2.1), and the link runs
 k in the world and ``o_k`` its joint's position,
 
     q_0 = root(t),    q_k = q_{k-1} * exp(hinge_k theta_k(t) / 2),
-    o_0 = 0,          o_k = o_{k-1} + R(q_{k-1}) l_{k-1} d_{k-1},
+    o_0 = s(t),       o_k = o_{k-1} + R(q_{k-1}) l_{k-1} d_{k-1},
 
 the 3-D form of the finger-tracking paper's r_i = R_i {0, l_i, 0} and s_k = sum r_i + h_k.
 A sensor sits at ``position_m`` in its link's frame, turned by ``mount``
@@ -166,6 +167,10 @@ class Motion:
     gains q_m's, and its acceleration the lever arm's, only as large as c is
     (zero for a rotation about the sensor itself). The links, and so the
     joints and what hangs on them, do not follow it.
+
+    ``shoulder``, if given, moves the root's joint: s(t), its position in
+    the world (metres) given the times and the root's orientations there,
+    which the whole chain follows; None keeps it at the origin.
     """
 
     root: Callable[[Array], Array]  # t -> q_W0 (N, 4), the root link's orientation
@@ -173,6 +178,7 @@ class Motion:
     pose: Callable[[Array], tuple[Array, Array]] | None = None  # t -> both, if cheaper at once
     mount: Callable[[Array], Array] | None = None  # t -> q_m (N, 4), every sensor turned on its link
     mount_pivot_m: Vec3 = (0.0, 0.0, 0.0)  # what q_m turns the sensor about, from it (link frame)
+    shoulder: Callable[[Array, Array], Array] | None = None  # (t, q_W0) -> s(t) (N, 3), the root joint (m)
 
     def at(self, t: Array) -> tuple[Array, Array]:
         """The root's orientations and the hinge angles at ``t``."""
@@ -736,6 +742,8 @@ class Simulator:
         arms = quat.rotate(q_links[:, index], vectors)
         origins = np.zeros((len(t), len(links), 3))
         np.cumsum(arms[:, :len(links) - 1], axis=1, out=origins[:, 1:])
+        if self.motion.shoulder is not None:
+            origins += np.asarray(self.motion.shoulder(t, q_links[:, 0]), dtype=float)[:, None, :]
         idx = index[len(links) - 1:]
         q_on_links, p_sensors = q_links[:, idx], origins[:, idx] + arms[:, len(links) - 1:]
         mount = self.motion.mount

@@ -115,6 +115,11 @@ RING_DECAYS = 20.0  # a kick's rocking is over after exp(-20) of it is left
 TREMOR_SPREAD_HZ = 1.0  # tremor components lie within this of the profile's tremor_hz
 TREMOR_COMPONENTS = 4  # sines per channel: beating, the tremor waxes and wanes as a real one
 SWAY_HZ = (0.1, 1.0)
+# The shoulder is no fixed point (Script, "Shoulder"): where its joint moves with the arm straight
+# up (body frame: x right, y forward, z up; metres), and the trunk's bounce while walking.
+SHOULDER_RISE_M = (0.0, -0.02, 0.04)
+WALK_BOUNCE_M = (0.01, 0.025)  # vertical amplitude, at twice the arm's swing frequency (a step per swing)
+WALK_SIDE_M = (0.01, 0.02)  # side to side, at the swing's frequency
 # Which strap axis a move of a channel rocks the board about: the hinge (link y) for the
 # elbow and for raising the arm in its plane, link x for swings across it (module docstring).
 _KICKED = {"flex": 1, "el": 1, "sx": 1, "az": 0, "sy": 0}
@@ -668,6 +673,19 @@ class Script:
     - Slip (board): the board's roll about the arm drifts at
       ``slip_deg_per_min`` (0-4 deg/min), its sign drawn from the seed, from
       the script's start.
+    - Shoulder (the chain's root joint, :meth:`shoulder`): the humerus turns
+      about a joint that moves. Raising the arm elevates and retracts the
+      clavicle (about 11 deg and 20 deg at 120 deg of arm elevation: Ludewig
+      et al., "Motion of the shoulder complex during multiplanar humeral
+      elevation", J. Bone Joint Surg. Am. 91(2), 2009), which carries the
+      joint up and back by a few centimetres over a 15 cm clavicle:
+      SHOULDER_RISE_M with the arm straight up, in proportion to
+      (1 - cos elevation) / 2 on the way. Walking bounces the trunk by 1-2.5
+      cm up and down at the step frequency and 1-2 cm side to side at the
+      stride's (the centre of mass's 2.5-5 cm vertical excursion: Gard, Miff
+      and Kuo, Human Movement Science 22(6), 2004), the bigger the swing the
+      bigger the bounce. Both add accelerations to the board's that no
+      rotation about a fixed shoulder explains.
     """
 
     def __init__(self, profile: PlayerProfile = PlayerProfile(), seed: int = 0,
@@ -684,6 +702,7 @@ class Script:
         self._rest_roll = self._tissue_roll(self._tremor)
         self._slip_sign = float(rng.choice([-1.0, 1.0]))
         self._waves: _Spans[_Wave] = _Spans()
+        self._trunk: _Spans[_Wave] = _Spans()  # the shoulder's bounce while walking (channels x, y, z; metres)
         self._rings: _Spans[_Ring] = _Spans()
         self.launches: list[TrueLaunch] = []
         self.idle_intervals: list[Interval] = []
@@ -752,9 +771,11 @@ class Script:
                         _Ring(t0 + duration, row, amplitude, p.wobble_hz))
 
     def _wave(self, channel: str, t0: float, t1: float, amplitude: float, freq_hz: float,
-              ramp: float, phase: float = 0.0) -> None:
+              ramp: float, phase: float = 0.0, spans: _Spans[_Wave] | None = None) -> None:
+        """A wave on a channel of the bone (or of ``spans``: the trunk's)."""
         self._edited_from = min(self._edited_from, t0)
-        self._waves.add(_Wave(channel, t0, t1, amplitude, freq_hz * self.profile.speed, phase, ramp))
+        (self._waves if spans is None else spans).add(
+            _Wave(channel, t0, t1, amplitude, freq_hz * self.profile.speed, phase, ramp))
 
     def _reach_time(self, rng: np.random.Generator, angle_deg: float) -> float:
         """A point-to-point arm move lasts longer the farther it goes (about 0.7 s for 90 deg)."""
@@ -894,6 +915,9 @@ class Script:
             return None
         freq, amplitude = rng.uniform(0.8, 1.0), rng.uniform(15, 25)
         self._wave("sx", t, end, amplitude, freq, ramp)
+        stride = (amplitude - 15.0) / 10.0  # the bigger the swing, the bigger the steps
+        for channel, freq_k, (low, high) in (("z", 2.0 * freq, WALK_BOUNCE_M), ("x", freq, WALK_SIDE_M)):
+            self._wave(channel, t, end, low + stride * (high - low), freq_k, ramp, spans=self._trunk)
         self._wave("flex", t, end, rng.uniform(3, 6), freq, ramp, phase=-0.5)
         self._move(t, ramp, flex=rng.uniform(10, 30))
         return self._move(end - ramp, ramp, flex=self.rest_flex)
@@ -972,6 +996,14 @@ class Script:
         """The bone's body-frame unit direction at ``t``, sway and tremor included."""
         return Q.rotate(self.root([t]), (0.0, 0.0, -1.0))[0]
 
+    def shoulder(self, t: Array, q_root: Array) -> Array:
+        """s(t): the shoulder joint's position (body frame, m), (N, 3), given the bone's q_WL
+        ``q_root`` at ``t``: risen with the arm, bounced by walking (class docstring)."""
+        up = Q.rotate(q_root, (0.0, 0.0, -1.0))[:, 2]  # the arm's pointing: -1 hanging, 1 straight up
+        out = np.outer(SHOULDER_RISE_M, (1.0 + up) / 2.0)
+        self._trunk.add_to(out, t, lambda w: "xyz".index(w.channel))
+        return out.T
+
     @staticmethod
     def _elbow(c: Array) -> Array:
         """The elbow angle (N, 1) from the channels in radians."""
@@ -991,13 +1023,14 @@ class Script:
         extended for an hour stays small and fast. The motion from ``t`` on is unchanged."""
         self._keyframes.forget_before(t)
         self._waves.forget_before(t)
+        self._trunk.forget_before(t)
         self._rings.forget_before(t)
 
     @property
     def motion(self) -> Motion:
         """The arm as a live :class:`tracker.sim.Motion` (segments added later change it): the
         bone, and the board turned on it by :meth:`strap`. What the simulator moves."""
-        return Motion(self.root, self.joints, self.pose, self.strap, STRAP_PIVOT_M)
+        return Motion(self.root, self.joints, self.pose, self.strap, STRAP_PIVOT_M, self.shoulder)
 
     def build(self) -> Session:
         """The session so far; later segments added to this script do not change it."""

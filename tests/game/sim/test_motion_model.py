@@ -478,3 +478,24 @@ def test_the_strap_rocks_the_board_on_the_arm_not_the_arm():
     extra_acc = np.linalg.norm(world(worn) - world(bare), axis=1).max()
     assert 0.1 * w**2 * a * STRAP_PIVOT_DEPTH_M < extra_acc < 2.0 * w**2 * a * STRAP_PIVOT_DEPTH_M
     assert extra_acc < w**2 * a * profile.upper_arm_m / 3
+
+
+def test_the_shoulder_rises_with_the_arm_and_bounces_while_walking():
+    """The chain hangs from a shoulder that moves (Script, "Shoulder"): the board stays its
+    0.3 m from it (within what the strap rocks it); still outside idle stretches with the arm down, raised 2 cm (half of the 4 cm
+    overhead) with the arm level; walking bounces it by 2-5 cm from top to bottom."""
+    profile = PlayerProfile()
+    script = session(profile, seed=2, gestures=6, idle_s=(20.0, 30.0))
+    t = np.arange(0.0, script.duration_s, 0.01)
+    truth = profile.simulator(script.motion, 2).truth(t)
+    s = script.motion.shoulder(t, truth.q_links[:, 0])
+    assert np.allclose(np.linalg.norm(truth.p_sensors[:, 0] - s, axis=1), 0.30, atol=0.003)  # the strap rocks it
+    elevation = script.elevation_deg(t)
+    idle = np.zeros(len(t), dtype=bool)
+    for t0, t1 in script.idle_intervals:
+        idle |= (t >= t0) & (t <= t1)
+    assert np.all(np.abs(s[~idle & (elevation < 5.0)]) < 0.001)
+    level = ~idle & (np.abs(elevation - 90.0) < 3.0)
+    assert level.any() and np.allclose(s[level, 2], 0.02, atol=0.0015)
+    bounce = max(np.ptp(s[(t >= t0) & (t <= t1), 2]) for t0, t1 in script.idle_intervals)
+    assert 0.02 <= bounce <= 0.05 + 0.001
