@@ -10,6 +10,10 @@ board's age (device time starts at power-up), so a board still warming up has
 its bias's drift learned from the start. Once the wearing calibration or a
 recenter has taken "forward" (:meth:`Tracking.anchor_heading`), the pose keeps
 it while the magnetometer's heading settles (:mod:`game.body.heading_anchor`).
+The ``default`` filter gets the accelerometer moved to the shoulder
+(:mod:`tracker.lever_arm`): the arm's turns about the shoulder taken off, at
+the rate its bias estimate corrects, so its inclination, and with it the bias
+it learns in motion, sees gravity rather than the arm's swings.
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ from tracker.flex import FlexCalibration, FlexTracker
 from tracker.fusion.base import Filter
 from tracker.fusion.default import DefaultFilter
 from tracker.fusion.qmath import about_z, as_vec, mul
+from tracker.lever_arm import LeverArm
 
 from .heading_anchor import HeadingAnchor
 from .pose import ArmPose
@@ -42,6 +47,7 @@ class Tracking:
     filter: Filter = field(default_factory=DefaultFilter)  # another (tracker.fusion.make) to compare
     flex: FlexTracker = field(init=False)
     anchor: HeadingAnchor = field(default_factory=HeadingAnchor)  # "forward" as the field's heading settles
+    lever: LeverArm = field(default_factory=LeverArm)  # the accelerometer moved to the shoulder
     _last_t: float | None = None
     _dt: float = 0.005
 
@@ -52,6 +58,7 @@ class Tracking:
         """Start over (a new board, or the board restarted)."""
         self.filter.reset()
         self.flex.reset()
+        self.lever.reset()
         self.anchor = HeadingAnchor()
         self._last_t = None
 
@@ -70,6 +77,10 @@ class Tracking:
             self.filter.power_on(t)  # device time is the board's age (its clock starts at power-up)
         dt = self._step(t)
         acc, gyr, mag = self.board.apply(sample)
+        if isinstance(self.filter, DefaultFilter):  # (the filters compared with it are fed as they were)
+            b = self.filter.bias
+            acc = self.lever.at_shoulder((gyr[0] - b[0], gyr[1] - b[1], gyr[2] - b[2]), (acc[0], acc[1], acc[2]),
+                                         self.filter.quat, dt)
         q = self.filter.update(gyr, acc, mag if self.use_magnetometer else None, dt)
         if self.anchor.t0 is not None and isinstance(self.filter, DefaultFilter):
             offset = self.anchor.follow(t, self.filter.heading)

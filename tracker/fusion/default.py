@@ -241,6 +241,11 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         return self._state.heading
 
     @property
+    def bias(self) -> Vec:
+        """The gyroscope bias estimated so far (rad/s, sensor frame)."""
+        return self._state.bias
+
+    @property
     def heading_spread(self) -> float:
         """How the field's heading has spread against the gyroscope's over the last
         ``mag_window_t`` (rad, a standard deviation; :meth:`_heading_weight`)."""
