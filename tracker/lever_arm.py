@@ -67,7 +67,7 @@ class LeverArmParams:
     tau: float = 0.056  # low-pass time constant of rates and accelerations: cut-off sqrt(2) / (2 pi tau) = 4 Hz
     window_t: float = 60.0  # the fit's sums forget over about this long (a strap moved, a new wearer)
     solve_t: float = 1.0  # the fit is solved this often
-    ridge: float = 0.5  # s^-4: K'K's mean over the window must exceed this for o to leave 0
+    ridge: float = 0.5  # s^-4: o stays near 0 until K'K's mean over the window is well above this
     max_m: float = 0.6  # a fit farther than this from the board is refused (an arm is shorter)
 
 
@@ -151,7 +151,8 @@ class LeverArm:
                  f * b[2] + c * (k2 * r0 + k5 * r1 + k8 * r2))
 
     def _solve(self) -> None:
-        """o = (K'K + ridge I)^-1 K'r over the window (Cramer's rule); kept unless within ``max_m``."""
+        """o = (K'K + ridge I)^-1 K'r over the window (Cramer's rule); a fit farther than ``max_m`` is
+        refused (the last one stays)."""
         p, s = self.params, self.state
         xx, xy, xz, yy, yz, zz = s.info
         xx, yy, zz = xx + p.ridge, yy + p.ridge, zz + p.ridge

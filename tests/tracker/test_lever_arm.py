@@ -48,7 +48,8 @@ def test_a_still_board_and_broken_readings_leave_the_fit_at_zero():
         assert lever.at_shoulder((0.0, 0.0, 0.0), (0.0, 0.0, GRAVITY), up, 1.0 / RATE) == (0.0, 0.0, GRAVITY)
     assert lever.offset == (0.0, 0.0, 0.0)
     bad = (math.nan, 0.0, GRAVITY)
-    assert lever.at_shoulder((0.0, 0.0, 0.0), bad, up, 1.0 / RATE) is bad  # passes unchanged ...
+    out = lever.at_shoulder((0.0, 0.0, 0.0), bad, up, 1.0 / RATE)  # passes unchanged ...
+    assert math.isnan(out[0]) and out[1:] == bad[1:]
     assert lever.at_shoulder((math.inf, 0.0, 0.0), (0.0, 0.0, GRAVITY), up, 0.005) == (0.0, 0.0, GRAVITY)
     assert lever.at_shoulder((0.0, 0.0, 0.0), (0.0, 0.0, GRAVITY), up, 0.0) == (0.0, 0.0, GRAVITY)
     assert all(math.isfinite(v) for v in lever.state.info + lever.state.rhs)  # ... and teaches nothing
