@@ -51,12 +51,14 @@ from dataclasses import dataclass, field
 
 from mypy_extensions import mypyc_attr
 
+from .fusion.qmath import rotate_inverse
 from .lowpass import LowPass2
 
 Vec = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
 Mat3 = tuple[float, float, float, float, float, float, float, float, float]  # by rows
 GRAVITY = 9.81
+UP_G = (0.0, 0.0, GRAVITY)
 EVERY = 4  # samples per update of the fit's sums (its signals are low-passed to about 4 Hz first)
 
 
@@ -117,9 +119,8 @@ class LeverArm:
             return acc
         s, p = self.state, self.params
         w = s.gyr_lp.step(gyr, dt)
-        qw, qx, qy, qz = q  # gravity in the sensor frame: world z (R_WS's third row) times g
-        gs_x, gs_y, gs_z = 2.0 * (qx * qz - qw * qy), 2.0 * (qy * qz + qw * qx), 1.0 - 2.0 * (qx * qx + qy * qy)
-        lever = s.acc_lp.step((ax - gs_x * GRAVITY, ay - gs_y * GRAVITY, az - gs_z * GRAVITY), dt)
+        gx_s, gy_s, gz_s = rotate_inverse(q, UP_G)  # gravity's reaction in the sensor frame, R_WS^T (0, 0, g)
+        lever = s.acc_lp.step((ax - gx_s, ay - gy_s, az - gz_s), dt)
         s.n += 1
         if s.n >= EVERY:  # the fit: the arm's moves (module docstring)
             self._learn(_k_matrix(w, _rate_of_change(s.rate_lp, w, s.n * dt)), lever, s.n * dt)
