@@ -41,7 +41,7 @@ from .link import Link
 from .mag_procedure import MagProcedure, MagStatus
 from .magfit import MagFitError
 from .protocol import BoardError, Hello, RawSample
-from .thermal import ThermalParams, ThermalProcedure, ThermalStatus
+from .thermal import ThermalParams, ThermalProcedure, ThermalStatus, thermal_calibration
 
 if TYPE_CHECKING:  # the virtual board and the simulated maker are POSIX only (a pty): imported when used
     from .board import VirtualBoard
@@ -352,15 +352,12 @@ def finish_thermal(board_id: str, procedure: ThermalProcedure, status: ThermalSt
     result = procedure.result()
     if not result.ok:
         raise CalibrationRefused(f"{result.problem}; nothing was saved")
-    fitted = C.BoardCalibration(board_id, gyro_thermal=result.slope, gyro_thermal_ref_c=np.array(result.ref_c))
-    slope = np.degrees(result.slope)
-    figures = {"rise_c": result.rise_c, "slope_dps_per_c": float(np.linalg.norm(slope)),
-               "residual_dps": result.residual_dps}
+    fitted, record = thermal_calibration(board_id, result)
     values = {"still_s": result.seconds, "gyro_thermal": result.slope.tolist(),
-              "gyro_thermal_ref_c": result.ref_c, **figures}
-    line = (f"gyroscope warm-up: bias slope ({_numbers(slope, '{:+.4f}')}) deg/s per degC about "
+              "gyro_thermal_ref_c": result.ref_c, **dict(record.figures)}
+    line = (f"gyroscope warm-up: bias slope ({_numbers(np.degrees(result.slope), '{:+.4f}')}) deg/s per degC about "
             f"{result.ref_c:.2f} degC; warmed {result.rise_c:.2f} degC, residual {result.residual_dps:.3f} deg/s")
-    return fitted, C.ProcedureRecord.now("thermal", figures), values, [line]
+    return fitted, record, values, [line]
 
 
 # ----------------------------------------------------------------- the commands

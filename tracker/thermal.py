@@ -46,7 +46,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from .calibration import DEG, RestParams, window_motion
+from .calibration import DEG, BoardCalibration, ProcedureRecord, RestParams, window_motion
 from .protocol import RawSample
 
 Array = NDArray[np.float64]
@@ -122,6 +122,15 @@ def fit_thermal(die_c: Array, gyr: Array, params: ThermalParams = ThermalParams(
     coef, *_ = np.linalg.lstsq(x, gyr, rcond=None)
     residual = gyr - x @ coef
     return ThermalResult(coef[1], ref, rise, float(np.sqrt(np.mean(residual**2))) / DEG, n)
+
+
+def thermal_calibration(board_id: str, result: ThermalResult) -> tuple[BoardCalibration, ProcedureRecord]:
+    """A fit's fields of the board's calibration (the slope about its reference; b0 is the day's), and the
+    procedure's record (now) with its figures: the warming seen, the slope's length, the residual."""
+    fitted = BoardCalibration(board_id, gyro_thermal=result.slope, gyro_thermal_ref_c=np.array(result.ref_c))
+    figures = {"rise_c": result.rise_c, "slope_dps_per_c": float(np.linalg.norm(result.slope)) / DEG,
+               "residual_dps": result.residual_dps}
+    return fitted, ProcedureRecord.now("thermal", figures)
 
 
 class ThermalProcedure:

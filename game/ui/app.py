@@ -35,8 +35,8 @@ from ..world.arena_model import Controls
 from ..replay.log import SessionLog, SessionRecorder
 from .audio import Audio
 from .session_events import RECORDED, event_json, session_summary
-from .board_setup import (ACCEL, ACCEL_DONE, FAILED, MAG, MAG_DONE, BoardSetup, Follower, MakerInput,
-                          calibration_notice, fresh_samples)
+from .board_setup import (ACCEL, ACCEL_DONE, FAILED, MAG, MAG_DONE, WARM, WARM_DONE, WARM_WAIT, BoardSetup,
+                          Follower, MakerInput, calibration_notice, fresh_samples)
 from .preferences import (Preferences, Score, add_score, load_preferences, load_scores, save_preferences,
                           step_flex_on, storage_notice)
 from .render import Renderer
@@ -665,12 +665,12 @@ class Settings:
         r.draw_menu(surface, labels, self.selected, y0)
 
 
-SETUP_STEPS = ("accelerometer", "magnetometer")
+SETUP_STEPS = ("accelerometer", "magnetometer", "warm-up")
 
 
 @dataclass
 class BoardSetupScreen:
-    """"Board setup": the maker's two calibrations with pictures (:mod:`game.ui.board_setup` holds the logic).
+    """"Board setup": the maker's three calibrations with pictures (:mod:`game.ui.board_setup` holds the logic).
 
     The board's raw samples come from the game's input (its ``recent``); with
     ``--virtual`` a simulated maker takes the virtual board from the player while
@@ -695,6 +695,8 @@ class BoardSetupScreen:
             setup.redo()
         elif event.key == pygame.K_m and setup.phase == ACCEL:
             setup.start(MAG)
+        elif event.key == pygame.K_s and setup.phase == WARM_WAIT:
+            setup.start(WARM)
         elif event.key in (pygame.K_RETURN, pygame.K_SPACE) and setup.next():
             self.game.audio.play("click")
             return self.leave()
@@ -718,13 +720,15 @@ class BoardSetupScreen:
         if game.link_lost():
             self.setup.interrupted()
             return None
+        if self.setup.phase == WARM_WAIT and isinstance(game.tracker, MakerInput):
+            game.tracker.power_cycle()  # the simulated maker unplugs the board until it is cold
         if game.tracker is not None:
             samples = fresh_samples(game.tracker.recent, self.last)
             if samples:
                 self.last = samples[-1]
             before = self.setup.phase
             self.setup.feed(samples)
-            if self.setup.phase != before and self.setup.phase in (ACCEL_DONE, MAG_DONE, FAILED):
+            if self.setup.phase != before and self.setup.phase in (ACCEL_DONE, MAG_DONE, WARM_DONE, FAILED):
                 game.audio.play("miss" if self.setup.phase == FAILED else "wave")
         return None
 
@@ -763,9 +767,10 @@ class BoardSetupScreen:
         w, h = surface.get_size()
         setup = self.setup
         phase = setup.phase if setup else ACCEL
-        mag = phase in (MAG, MAG_DONE) or (phase == FAILED and setup is not None and setup.failed_phase == MAG)
+        shown = setup.failed_phase if phase == FAILED and setup is not None else phase  # the step it belongs to
+        step = 2 if shown in (WARM_WAIT, WARM, WARM_DONE) else 1 if shown in (MAG, MAG_DONE) else 0
         title = "BOARD SETUP" + (f"  -  board {setup.board_id}" if setup else "")
-        r.draw_setup_header(surface, title, SETUP_STEPS, 1 if mag else 0)
+        r.draw_setup_header(surface, title, SETUP_STEPS, step)
         top, gap = int(h * 0.11), 20
         pictures = pygame.Rect(gap, top, w - 2 * gap, int(h * 0.56))
         text = pygame.Rect(gap, pictures.bottom + gap, w - 2 * gap, h - pictures.bottom - 2 * gap)
@@ -774,13 +779,10 @@ class BoardSetupScreen:
             return
         third = (pictures.width - 2 * gap) // 3
         now = pygame.Rect(pictures.left, pictures.top, third, pictures.height)
-        r.draw_board(surface, now, setup.gravity, "the board now", None, () if mag else setup.accel_status.captured,
-                     0.25 * math.sin(0.5 * self.clock))
+        captured = setup.accel_status.captured if step == 0 else ()
+        r.draw_board(surface, now, setup.gravity, "the board now", None, captured, 0.25 * math.sin(0.5 * self.clock))
         rest = pygame.Rect(now.right + gap, pictures.top, pictures.right - now.right - gap, pictures.height)
-        if mag:
-            self.draw_mag(surface, rest, setup)
-        else:
-            self.draw_accel(surface, rest, setup)
+        (self.draw_accel, self.draw_mag, self.draw_warm)[step](surface, rest, setup)
         lines = [*setup.figures, setup.saved, setup.notice]
         warn = phase == FAILED or setup.disconnected or bool(phase == MAG and setup.mag_status.problem)
         r.draw_setup_text(surface, text, setup.message(), [line for line in lines if line], setup.keys(), warn)
@@ -825,6 +827,26 @@ class BoardSetupScreen:
                      f"directions covered: {100 * status.coverage:.0f} % of the {100 * need:.0f} % needed"
                      f"   -   field now {status.field_ut:.0f} uT", status.coverage / need,
                      GREEN if status.ready else ACCENT_BLUE)
+
+    def draw_warm(self, surface: pygame.Surface, rect: pygame.Rect, setup: BoardSetup) -> None:
+        """The time the board has lain warming, its still seconds, the die's temperature and its rise."""
+        r = self.game.renderer
+        status = setup.warm_status
+        surface.blit(r.sprites.panel(rect.width, rect.height), rect)
+        params = setup.warm.params
+        row = pygame.Rect(rect.left + 16, rect.top + 24, rect.width - 32, 48)
+        if setup.phase == WARM_WAIT:
+            label, share = "waiting for the board to be plugged in cold", 0.0
+        else:
+            label, share = f"warming {status.elapsed_s / 60:.1f} of {params.duration_s / 60:.0f} min", \
+                status.elapsed_s / params.duration_s
+        r.draw_meter(surface, row, label, share, ACCENT_BLUE)
+        still = f"still seconds: {status.still_s} (the fit needs {params.min_still_s:.0f})"
+        r.draw_meter(surface, row.move(0, 80), still, status.still_s / params.min_still_s, GREEN)
+        die = "the die's temperature: not read yet" if status.die_c is None else \
+            f"the die's temperature: {status.die_c:.2f} degC, risen {status.rise_c:.2f} (the fit needs " \
+            f"{params.min_rise_c:.1f})"
+        r.draw_meter(surface, row.move(0, 160), die, status.rise_c / params.min_rise_c, YELLOW)
 
     def waiting(self) -> str:
         """What the screen says before a board has identified itself."""

@@ -1,14 +1,19 @@
-"""The "Board setup" screen's logic: the maker's two calibrations, on the game's board input.
+"""The "Board setup" screen's logic: the maker's three calibrations, on the game's board input.
 
-The same procedures as ``armtracker calibrate accel`` and ``calibrate mag``
-(:mod:`tracker.accel_procedure`, :mod:`tracker.mag_procedure`), fed the raw
-samples the game's input keeps (:class:`game.body.controls.SampleInput`'s
-``recent``), one phase after the other:
+The same procedures as ``armtracker calibrate accel``, ``calibrate mag`` and
+``calibrate thermal`` (:mod:`tracker.accel_procedure`, :mod:`tracker.mag_procedure`,
+:mod:`tracker.thermal`), fed the raw samples the game's input keeps
+(:class:`game.body.controls.SampleInput`'s ``recent``), one phase after the other:
 
 ``accel``  put each face up in turn (the procedure captures a still pose by itself)
 ``accel_done``  the fit's residual, saved; Enter goes on to the magnetometer
 ``mag``  turn the board slowly through all orientations until enough directions are covered
-``mag_done``  the residual, the field's strength and dip, saved; Enter is back to the menu
+``mag_done``  the residual, the field's strength and dip, saved; Enter goes on to the warm-up
+``warm_wait``  unplug the board for ten minutes so that it cools, plug it in: a board whose clock
+           says it powered up moments ago starts the warm-up (S starts it on the board as it is);
+           Enter is back to the menu without it
+``warm``  the board lies still while it warms (ten minutes)
+``warm_done``  the bias's slope in the temperature, the warming seen, saved; Enter is back to the menu
 ``failed``  a fit the procedure refused (its one-line reason); R does the procedure again
 
 Each fit is saved at once to the board's file (:func:`tracker.calibration.save_procedure`,
@@ -25,7 +30,7 @@ from __future__ import annotations
 from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Protocol
+from typing import Callable, Protocol, TypeVar
 
 import numpy as np
 
@@ -36,20 +41,24 @@ from tracker.calibration import (BoardCalibration, CalibrationFileError, Procedu
                                  damage, load, save_procedure)
 from tracker.magfit import MagFitError
 from tracker.mag_procedure import MagProcedure, MagResult, MagStatus, bin_directions
-from tracker.maker_sim import SimulatedMaker
+from tracker.maker_sim import THERMAL_POWER_ON, SimulatedMaker
 from tracker.protocol import RawSample
+from tracker.thermal import ThermalProcedure, ThermalStatus, thermal_calibration
 
 from ..body.controls import SampleInput
 from ..body.tracking import Tracking
 
 ACCEL, ACCEL_DONE, MAG, MAG_DONE, FAILED = "accel", "accel_done", "mag", "mag_done", "failed"
-RUNNING = (ACCEL, MAG)
+WARM_WAIT, WARM, WARM_DONE = "warm_wait", "warm", "warm_done"
+RUNNING = (ACCEL, MAG, WARM)
+Status = TypeVar("Status", AccelStatus, MagStatus, ThermalStatus)
+FRESH_POWER_S = 20.0  # a board whose clock reads less than this powered up just now: its warm-up is all to come
 
 
 class Follower(Protocol):
     """Someone who reads the procedure's status and does what it asks (the simulated maker)."""
 
-    def follow(self, status: AccelStatus | MagStatus) -> None: ...
+    def follow(self, status: AccelStatus | MagStatus | ThermalStatus) -> None: ...
 
 
 def fresh_samples(recent: deque[RawSample], last: RawSample | None) -> list[RawSample]:
@@ -82,12 +91,12 @@ def mag_fit(board_id: str, result: MagResult) -> tuple[BoardCalibration, Procedu
 
 @dataclass
 class BoardSetup:
-    """Both procedures for one board, one phase at a time (module docstring).
+    """The procedures for one board, one phase at a time (module docstring).
 
     ``board_id``: the board's file (:func:`tracker.calibration.board_id_of`); ``calibration``:
     the board's as loaded (None: none saved), updated as each fit is saved; ``directory``: where board files live (None: :func:`tracker.calibration.boards_dir`);
     ``maker``: told every status (``--virtual``); ``applied``: called with the board's
-    calibration as saved (both procedures' fields), for the game to use it at once.
+    calibration as saved (every procedure's fields), for the game to use it at once.
     """
 
     board_id: str
@@ -99,6 +108,7 @@ class BoardSetup:
     phase: str = ACCEL
     accel: AccelProcedure = field(default_factory=AccelProcedure)
     mag: MagProcedure = field(default_factory=MagProcedure)
+    warm: ThermalProcedure = field(default_factory=ThermalProcedure)
     failed_phase: str = ACCEL  # which procedure R does again once failed
     problem: str = ""  # why the last fit was refused, or why it could not be saved
     saved: str = ""  # where the last fit went, in words
@@ -120,6 +130,10 @@ class BoardSetup:
     def mag_status(self) -> MagStatus:
         return self.mag.status
 
+    @property
+    def warm_status(self) -> ThermalStatus:
+        return self.warm.status
+
     @staticmethod
     def directions() -> np.ndarray:
         """The magnetometer procedure's direction bins (n, 3), in :attr:`MagStatus.covered`'s order."""
@@ -133,20 +147,29 @@ class BoardSetup:
             return self.accel.status.message
         if self.phase == MAG:
             return self.mag.status.message
+        if self.phase == WARM_WAIT:
+            return ("the gyroscope's warm-up: unplug the board for ten minutes so that it cools, then plug it "
+                    "back in and leave it lying still while it warms (ten minutes)")
+        if self.phase == WARM:
+            return self.warm.status.message
         if self.phase == FAILED:
             return self.problem
-        done = "accelerometer" if self.phase == ACCEL_DONE else "magnetometer"
+        done = {ACCEL_DONE: "accelerometer", MAG_DONE: "magnetometer", WARM_DONE: "gyroscope's warm-up"}[self.phase]
         return f"{done} calibrated" + (f": {self.problem}" if self.problem else "")
 
     def keys(self) -> str:
         """The keys that work now, in words."""
         if self.phase == ACCEL:
             return "R: start again   M: skip to the magnetometer   Esc: back"
-        if self.phase == MAG:
+        if self.phase in (MAG, WARM):
             return "R: start again   Esc: back"
         if self.phase == ACCEL_DONE:
             return "Enter: on to the magnetometer   R: redo   Esc: back"
         if self.phase == MAG_DONE:
+            return "Enter: on to the warm-up   R: redo   Esc: back"
+        if self.phase == WARM_WAIT:
+            return "S: start now (the board powered up cold)   Enter: done without it   Esc: back"
+        if self.phase == WARM_DONE:
             return "Enter: done   R: redo   Esc: back"
         return "R: try again   Esc: back"
 
@@ -159,19 +182,24 @@ class BoardSetup:
         self.disconnected = False
         self.gravity = samples[-1].acc
         if self.phase == ACCEL:
-            for s in samples:
-                status = self.accel.feed(s)
-            if self.maker:
-                self.maker.follow(status)
-            if status.done:
+            if self._run(self.accel.feed, samples).done:
                 self._finish_accel()
         elif self.phase == MAG:
-            for s in samples:
-                mstatus = self.mag.feed(s)
-            if self.maker:
-                self.maker.follow(mstatus)
-            if mstatus.ready or mstatus.problem:  # enough covered, or what will refuse the fit is known
+            status = self._run(self.mag.feed, samples)
+            if status.ready or status.problem:  # enough covered, or what will refuse the fit is known
                 self._finish_mag()
+        elif self.phase == WARM_WAIT and samples[0].t < FRESH_POWER_S:
+            self.start(WARM)  # the board's clock starts at power-up: it was just plugged in
+        if self.phase == WARM and self._run(self.warm.feed, samples).done:
+            self._finish_warm()
+
+    def _run(self, feed: Callable[[RawSample], Status], samples: list[RawSample]) -> Status:
+        """The running procedure (its ``feed``) over the samples; the maker reads the status after them."""
+        for sample in samples:
+            status = feed(sample)
+        if self.maker:
+            self.maker.follow(status)
+        return status
 
     def interrupted(self) -> None:
         """The link was lost: the running procedure forgets only what was in progress."""
@@ -182,27 +210,37 @@ class BoardSetup:
             self.accel.interrupted()
         elif self.phase == MAG:
             self.mag.interrupted()
+        elif self.phase == WARM:
+            self.warm.interrupted()
 
     # ---------------------------------------------------------- keys
 
     def next(self) -> bool:
-        """Enter: from the accelerometer's result on to the magnetometer; True when all is done."""
+        """Enter: from the accelerometer's result on to the magnetometer, from the magnetometer's on to
+        the warm-up; True when all is done (the warm-up's result, or the warm-up skipped)."""
+        if self.phase in (WARM_WAIT, WARM_DONE):
+            return True
         if self.phase == ACCEL_DONE:
             self.start(MAG)
-        return self.phase == MAG_DONE
+        elif self.phase == MAG_DONE:
+            self.start(WARM_WAIT)
+        return False
 
     def redo(self) -> None:
         """R: the current (or the failed, or the last finished) procedure from the start."""
-        phase = {FAILED: self.failed_phase, ACCEL_DONE: ACCEL, MAG_DONE: MAG}.get(self.phase, self.phase)
+        phase = {FAILED: self.failed_phase, ACCEL_DONE: ACCEL, MAG_DONE: MAG, WARM: WARM_WAIT,
+                 WARM_DONE: WARM_WAIT}.get(self.phase, self.phase)
         self.start(phase)
 
     def start(self, phase: str) -> None:
-        """Begin procedure ``phase`` (ACCEL or MAG) afresh."""
+        """Begin ``phase`` (ACCEL, MAG, WARM_WAIT or WARM: S on WARM_WAIT) afresh."""
         if phase == ACCEL:
             self.accel = AccelProcedure(self.accel.params)
-        else:
+        elif phase == MAG:
             accel = self.calibration if self.calibration and self.calibration.record(ACCEL) else None
             self.mag = MagProcedure(self.mag.params, accel=accel)
+        elif phase == WARM:
+            self.warm = ThermalProcedure(self.warm.params)
         self.phase, self.problem, self.saved, self.figures = phase, "", "", []
 
     # ---------------------------------------------------------- results
@@ -225,6 +263,15 @@ class BoardSetup:
                         f"field strength {result.strength_ut:.1f} uT, dip {result.dip_deg:.1f} deg",
                         "hard iron " + ", ".join(f"{v:+.1f}" for v in result.fit.offset) + " uT"]
         self._save(MAG_DONE, *mag_fit(self.board_id, result))
+
+    def _finish_warm(self) -> None:
+        result = self.warm.result()
+        if not result.ok:
+            return self._fail(WARM_WAIT, result.problem)
+        self.figures = ["bias slope " + ", ".join(f"{v:+.4f}" for v in np.degrees(result.slope)) + " deg/s per degC",
+                        f"warmed {result.rise_c:.2f} degC over {result.seconds} still seconds",
+                        f"residual {result.residual_dps:.3f} deg/s"]
+        self._save(WARM_DONE, *thermal_calibration(self.board_id, result))
 
     def _fail(self, phase: str, problem: str) -> None:
         self.phase, self.failed_phase, self.problem = FAILED, phase, problem
@@ -276,6 +323,14 @@ class MakerInput(SampleInput):
 
     def hello_now(self) -> P.Hello | None:
         return self.hello
+
+    def power_cycle(self) -> None:
+        """The maker unplugs the board, lets it cool, and plugs it back in: its next power-on (the
+        warm-up starts again from cold; the power-on the simulated maker's own warm-up uses) and its clock
+        from 0."""
+        m = self.maker
+        self.maker = SimulatedMaker(m.errors, m.seed, m.rate_hz, power_on=THERMAL_POWER_ON)
+        self.t, self._next = 0.0, 0
 
     def arrived(self) -> list[P.RawSample | P.FusedSample]:
         """The samples of the next ``frame_s``."""

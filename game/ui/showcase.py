@@ -26,11 +26,12 @@ from ..world.arena_model import Controls, Zombie, ZombieState  # noqa: E402
 from ..world.collision import inside  # noqa: E402
 from ..world.town import make_town  # noqa: E402
 from .app import App, BoardSetupScreen, Calibration, GameOver, Menu, Pause, Play, Settings  # noqa: E402
-from .board_setup import ACCEL_DONE, FAILED, MAG, MAG_DONE, MakerInput  # noqa: E402
+from .board_setup import ACCEL_DONE, FAILED, MAG, MAG_DONE, WARM, WARM_DONE, MakerInput  # noqa: E402
 from .preferences import Preferences  # noqa: E402
 
 SIZE = (1280, 720)
-SETUP_LIMIT_S = 240.0  # the board setup's shots give up after this much simulated time
+SETUP_LIMIT_S = 1000.0  # the board setup's shots give up after this much simulated time
+WARM_FRAME_S = 0.5  # the warm-up's ten minutes go by in frames this long (nothing on screen moves faster)
 
 
 def _app(folder: str) -> App:
@@ -130,7 +131,7 @@ def _raise_and_spin(app: App) -> None:
 
 
 def shots(out: str | os.PathLike) -> list[Path]:
-    """Render menu, calibration, play, pause, game over, settings and the board setup (both procedures,
+    """Render menu, calibration, play, pause, game over, settings and the board setup (its three procedures,
     a few moments each) to PNG files in ``out``."""
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
@@ -174,11 +175,12 @@ def shots(out: str | os.PathLike) -> list[Path]:
 def board_setup_shots(app: App, save: Callable[[str], None]) -> None:
     """The board setup with a simulated maker in simulated time, a few moments of each procedure:
     a face held still, the board turning to the next, the accelerometer's result; the sphere a
-    third and two thirds covered, the magnetometer's result."""
+    third and two thirds covered, the magnetometer's result; the board warming, the warm-up's result."""
     from tracker.maker_sim import SimulatedMaker
 
     dt = 1 / 60
-    app.game.use_source(MakerInput(SimulatedMaker(seed=7), dt))
+    board = MakerInput(SimulatedMaker(seed=7), dt)
+    app.game.use_source(board)
     screen = BoardSetupScreen(app.game)
     app.screen = screen
     moments: list[tuple[str, Callable[[], bool]]] = [
@@ -187,7 +189,9 @@ def board_setup_shots(app: App, save: Callable[[str], None]) -> None:
         ("board_setup_accel_done", lambda: phase() == ACCEL_DONE),
         ("board_setup_mag_third", lambda: phase() == MAG and mag().coverage >= 0.33),
         ("board_setup_mag_two_thirds", lambda: phase() == MAG and mag().coverage >= 0.67),
-        ("board_setup_mag_done", lambda: phase() == MAG_DONE)]
+        ("board_setup_mag_done", lambda: phase() == MAG_DONE),
+        ("board_setup_warm", lambda: phase() == WARM and warm().elapsed_s >= 240.0),
+        ("board_setup_warm_done", lambda: phase() == WARM_DONE)]
 
     def phase() -> str:
         return screen.setup.phase if screen.setup else ""
@@ -200,6 +204,10 @@ def board_setup_shots(app: App, save: Callable[[str], None]) -> None:
         assert screen.setup is not None
         return screen.setup.mag_status
 
+    def warm():
+        assert screen.setup is not None
+        return screen.setup.warm_status
+
     t = 0.0
     while moments and t < SETUP_LIMIT_S:
         app.frame([], dt, draw=False)
@@ -210,8 +218,10 @@ def board_setup_shots(app: App, save: Callable[[str], None]) -> None:
         if screen.setup is not None and reached():
             save(name)
             moments.pop(0)
-            if phase() == ACCEL_DONE:
+            if phase() in (ACCEL_DONE, MAG_DONE):
                 app.frame([_key(pygame.K_RETURN)], dt, draw=False)
+            if name == "board_setup_mag_done":  # on to the warm-up: the board lies still for minutes
+                board.frame_s = dt = WARM_FRAME_S
     if moments:
         raise RuntimeError(f"the board setup did not reach {moments[0][0]} in {SETUP_LIMIT_S:g} s")
     app.game.use_keyboard()

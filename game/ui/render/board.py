@@ -1,7 +1,8 @@
 """The Board setup's pictures: the board as a box with its axes, the faces asked, the sphere of directions.
 
-The maker's two calibrations (:mod:`game.ui.board_setup`) show the board turned
-as the accelerometer sees it and the directions the magnetometer has covered.
+The maker's calibrations (:mod:`game.ui.board_setup`) show the board turned
+as the accelerometer sees it and the directions the magnetometer has covered
+(the warm-up's bars are plain meters).
 """
 
 from __future__ import annotations

@@ -22,13 +22,16 @@ import pytest  # noqa: E402
 from hypothesis import given, settings, strategies as st  # noqa: E402
 
 from game.ui.app import App, BoardSetupScreen, Menu, Play  # noqa: E402
-from game.ui.board_setup import ACCEL, ACCEL_DONE, MAG, MAG_DONE, MakerInput, fresh_samples  # noqa: E402
+from game.ui.board_setup import (ACCEL, ACCEL_DONE, MAG, MAG_DONE, WARM, WARM_DONE, WARM_WAIT, BoardSetup,  # noqa: E402
+                                 MakerInput, fresh_samples)
 from game.ui.preferences import Preferences  # noqa: E402
 from game.ui.render.board import (BOARD_FACES, face_normal, globe_cells, globe_image, rotation_to_up,  # noqa: E402
                                   view_rotation, visible_faces)
 from tracker.calibration import BoardCalibration, ProcedureRecord, load, save_procedure  # noqa: E402
 from tracker.maker_sim import SimulatedMaker, calibration_errors  # noqa: E402
+from tracker import protocol as P  # noqa: E402
 from tracker.motion import EARTH_FIELD_UT  # noqa: E402
+from tracker.thermal import ThermalParams, ThermalProcedure  # noqa: E402
 
 DT = 1 / 60
 SETUP_ITEM = Menu(None).items.index("Board setup")  # type: ignore[arg-type]
@@ -123,8 +126,46 @@ def test_board_setup_runs_both_procedures_with_the_simulated_maker_and_saves_the
     lines = " ".join(screen.setup.figures)
     assert f"{figures['strength_ut']:.1f} uT" in lines and f"dip {figures['dip_deg']:.1f} deg" in lines
 
-    app.frame([key(pygame.K_RETURN)], DT)  # done: back to the menu
+    app.frame([key(pygame.K_RETURN)], DT)  # on to the warm-up, which waits for a board powered up cold
+    assert phase_of(app) == WARM_WAIT and "S: start now" in screen.setup.keys()
+    app.frame([key(pygame.K_RETURN)], DT)  # done without it: back to the menu
     assert isinstance(app.screen, Menu)
+
+
+def test_the_warm_up_starts_when_the_board_powers_up_and_saves_its_slope(maker_app, home):
+    """The third step: the simulated maker unplugs the board until it is cold and plugs it back in (a
+    board whose clock starts again), the screen watches it warm, fits the bias's slope and saves it."""
+    app, _ = maker_app
+    screen = open_board_setup(app)
+    app.frame([], DT)
+    setup = screen.setup
+    setup.warm = ThermalProcedure(ThermalParams(duration_s=150.0))  # a quarter of the ten minutes: quick
+    setup.start(WARM_WAIT)
+    app.frame([], DT)
+    assert phase_of(app) == WARM and app.game.tracker.t < 0.1  # plugged in cold: its clock starts again
+    run_until(app, lambda: phase_of(app) == WARM_DONE, 60 * 160)
+    saved = json.loads((home / "boards" / "imu-71.json").read_text())
+    figures = saved["procedures"]["thermal"]
+    assert figures["rise_c"] >= 1.0 and "warmed" in " ".join(setup.figures)
+    truth = app.game.tracker.maker.true_calibration()  # this power-on's warm-up over the die's rise
+    error = calibration_errors(load("imu-71", home / "boards"), truth)["gyro_thermal_error_dps_per_c"]
+    assert error < 0.02, error  # of the data sheet's 0.24 deg/s per degC
+    np.testing.assert_array_equal(app.game.tracker.tracking.board.gyro_thermal, saved["gyro_thermal"])  # applied
+    app.frame([key(pygame.K_RETURN)], DT)
+    assert isinstance(app.screen, Menu)
+
+
+def test_the_warm_up_waits_for_a_board_that_just_powered_up():
+    setup = BoardSetup("imu-71")
+    setup.start(WARM_WAIT)
+    still = [P.RawSample(t, 0, 0, (0, 0, 2048), (0, 0, 0), None, 400, temp_counts=P.temp_counts(30.0))
+             for t in (500.0, 500.005)]
+    setup.feed(still)  # a board powered up long ago: already warm, nothing to watch
+    assert setup.phase == WARM_WAIT and setup.warm_status.die_c is None
+    setup.feed([s._replace(t=s.t - 500.0) for s in still])  # unplugged and plugged back in: its clock restarts
+    assert setup.phase == WARM and setup.warm_status.die_c == pytest.approx(30.0, abs=0.01)
+    setup.redo()  # R while it warms: wait for the board again
+    assert setup.phase == WARM_WAIT
 
 
 def test_keys_skip_redo_and_leave(maker_app):
