@@ -24,6 +24,7 @@ import pygame
 from tracker import protocol as P
 from tracker.calibration import BoardCalibration, board_id_of, load_for_hello
 from tracker.link import LinkSettings, find_boards
+from tracker.maker_sim import SimulatedMaker
 
 from ..body.avatar import Avatar, BodySettings, Wearing
 from ..body.controls import KeyboardMouse, SampleInput, SourceState, TrackerInput
@@ -36,7 +37,7 @@ from ..replay.log import SessionLog, SessionRecorder
 from .audio import Audio
 from .session_events import RECORDED, event_json, session_summary
 from .board_setup import (ACCEL, ACCEL_DONE, FAILED, MAG, MAG_DONE, WARM, WARM_DONE, WARM_WAIT, BoardSetup,
-                          Follower, MakerInput, calibration_notice, fresh_samples)
+                          Follower, MakerInput, calibration_notice, cold, fresh_samples)
 from .preferences import (Preferences, Score, add_score, load_preferences, load_scores, save_preferences,
                           step_flex_on, storage_notice)
 from .render import Renderer
@@ -682,6 +683,7 @@ class BoardSetupScreen:
     clock: float = 0.0
     last: P.RawSample | None = None  # the newest sample already fed
     lent: "MotionSource | None" = None  # the virtual board's player while the simulated maker holds it
+    cooled: bool = False  # the simulated maker has powered the board up cold for this warm-up
 
     def handle(self, event: pygame.event.Event) -> Screen | None:
         if event.type != pygame.KEYDOWN:
@@ -720,8 +722,7 @@ class BoardSetupScreen:
         if game.link_lost():
             self.setup.interrupted()
             return None
-        if self.setup.phase == WARM_WAIT and isinstance(game.tracker, MakerInput):
-            game.tracker.power_cycle()  # the simulated maker unplugs the board until it is cold
+        self.cool_the_board()
         if game.tracker is not None:
             samples = fresh_samples(game.tracker.recent, self.last)
             if samples:
@@ -748,11 +749,27 @@ class BoardSetupScreen:
         return BoardSetup(game.board_id_of(hello), game.tracker.tracking.board, game.boards_folder(), maker,
                           game.apply_board_calibration)
 
+    def cool_the_board(self) -> None:
+        """The warm-up waits for a board powered up cold: the simulated maker unplugs its board until it is
+        cold and plugs it back in, once each time the step waits (a player does it by hand)."""
+        setup, game = self.setup, self.game
+        if setup is None or setup.phase != WARM_WAIT:
+            self.cooled = False
+            return
+        if self.cooled:
+            return
+        self.cooled = True
+        board = game.virtual_board
+        if isinstance(game.tracker, MakerInput):
+            game.tracker.power_cycle()
+        elif self.lent is not None and board is not None and isinstance(board.motion, SimulatedMaker):
+            board.pull_cable()
+            board.motion = cold(board.motion)
+            board.plug_in()  # its clock starts again
+
     def lend_virtual_board(self, board: "VirtualBoard") -> Follower:
         """Hand the virtual board to a simulated maker until the screen is left: the same board (the
         virtual player's errors, drawn from the same seed) lying on a table."""
-        from tracker.maker_sim import SimulatedMaker
-
         from ..sim.virtual_player import VirtualPlayer
         self.lent = board.motion
         errors = self.lent.script.profile.sensor_errors() if isinstance(self.lent, VirtualPlayer) else None

@@ -295,6 +295,12 @@ class BoardSetup:
             self.applied(self.calibration)
 
 
+def cold(maker: SimulatedMaker) -> SimulatedMaker:
+    """The simulated maker's board unplugged until it is cold and plugged back in: its warm-up starts again
+    (the power-on the simulated maker's own warm-up calibration uses, :func:`tracker.maker_sim.warm_up`)."""
+    return SimulatedMaker(maker.errors, maker.seed, maker.rate_hz, power_on=THERMAL_POWER_ON)
+
+
 def calibration_notice(calibration: BoardCalibration, loaded: str) -> str:
     """What the game says when a board connects: what was loaded, or that nothing was (offering the setup)."""
     if calibration.procedures:
@@ -326,10 +332,8 @@ class MakerInput(SampleInput):
 
     def power_cycle(self) -> None:
         """The maker unplugs the board, lets it cool, and plugs it back in: its next power-on (the
-        warm-up starts again from cold; the power-on the simulated maker's own warm-up uses) and its clock
-        from 0."""
-        m = self.maker
-        self.maker = SimulatedMaker(m.errors, m.seed, m.rate_hz, power_on=THERMAL_POWER_ON)
+        warm-up starts again from cold) and its clock from 0."""
+        self.maker = cold(self.maker)
         self.t, self._next = 0.0, 0
 
     def arrived(self) -> list[P.RawSample | P.FusedSample]:

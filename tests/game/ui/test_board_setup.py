@@ -241,6 +241,11 @@ def test_virtual_board_setup_end_to_end_with_a_pulled_cable(home):
         assert set(saved["procedures"]) == {"accel", "mag"}
         assert not (home / "boards" / "imu-71.json").exists()
         assert saved["mag_hard_iron"] != [0.0, 0.0, 0.0] and saved["acc_offset"] != [0.0, 0.0, 0.0]
+        plugs = board.counters.plugs
+        app.frame([key(pygame.K_RETURN)], DT)  # on to the warm-up: the maker unplugs the board until it is cold
+        run_until(app, lambda: phase_of(app) == WARM, 60 * 10, real_time=True)
+        assert board.counters.plugs == plugs + 1 and screen.setup.warm_status.die_c is not None
+        assert screen.setup.warm_status.elapsed_s < 5.0  # watched from its power-up
         app.frame([key(pygame.K_ESCAPE)], DT)
         assert isinstance(app.screen, Menu) and board.motion is player  # the player has it back
     finally:
