@@ -476,10 +476,16 @@ def run_maker(procedure: AccelProcedure | MagProcedure | ThermalProcedure, maker
     return run
 
 
+def cold(maker: SimulatedMaker, rate_hz: float) -> SimulatedMaker:
+    """``maker``'s board unplugged until it is cold and plugged back in, sampled at ``rate_hz``: a power-on
+    of its own (:data:`THERMAL_POWER_ON`), so its warm-up starts again, and its clock from 0."""
+    return SimulatedMaker(maker.errors, maker.seed, rate_hz, power_on=THERMAL_POWER_ON)
+
+
 def warm_up(maker: SimulatedMaker, params: ThermalParams = ThermalParams()) -> MakerRun:
-    """The warm-up calibration (:mod:`tracker.thermal`) on ``maker``'s board: powered up cold (a power-on of
-    its own, :data:`THERMAL_POWER_ON`) and left lying still, sampled at :data:`THERMAL_RATE_HZ`."""
-    board = SimulatedMaker(maker.errors, maker.seed, THERMAL_RATE_HZ, power_on=THERMAL_POWER_ON)
+    """The warm-up calibration (:mod:`tracker.thermal`) on ``maker``'s board: powered up cold (:func:`cold`)
+    and left lying still, sampled at :data:`THERMAL_RATE_HZ`."""
+    board = cold(maker, THERMAL_RATE_HZ)
     return run_maker(ThermalProcedure(params), board, limit_s=params.duration_s + 1.0)
 
 

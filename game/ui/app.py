@@ -24,7 +24,7 @@ import pygame
 from tracker import protocol as P
 from tracker.calibration import BoardCalibration, board_id_of, load_for_hello
 from tracker.link import LinkSettings, find_boards
-from tracker.maker_sim import SimulatedMaker
+from tracker.maker_sim import SimulatedMaker, cold
 
 from ..body.avatar import Avatar, BodySettings, Wearing
 from ..body.controls import KeyboardMouse, SampleInput, SourceState, TrackerInput
@@ -37,7 +37,7 @@ from ..replay.log import SessionLog, SessionRecorder
 from .audio import Audio
 from .session_events import RECORDED, event_json, session_summary
 from .board_setup import (ACCEL, ACCEL_DONE, FAILED, MAG, MAG_DONE, WARM, WARM_DONE, WARM_WAIT, BoardSetup,
-                          Follower, MakerInput, calibration_notice, cold, fresh_samples)
+                          Follower, MakerInput, calibration_notice, fresh_samples)
 from .preferences import (Preferences, Score, add_score, load_preferences, load_scores, save_preferences,
                           step_flex_on, storage_notice)
 from .render import Renderer
@@ -764,7 +764,7 @@ class BoardSetupScreen:
             game.tracker.power_cycle()
         elif self.lent is not None and board is not None and isinstance(board.motion, SimulatedMaker):
             board.pull_cable()
-            board.motion = cold(board.motion)
+            board.motion = cold(board.motion, board.motion.rate_hz)
             board.plug_in()  # its clock starts again
 
     def lend_virtual_board(self, board: "VirtualBoard") -> Follower:

@@ -41,7 +41,7 @@ from tracker.calibration import (BoardCalibration, CalibrationFileError, Procedu
                                  damage, load, save_procedure)
 from tracker.magfit import MagFitError
 from tracker.mag_procedure import MagProcedure, MagResult, MagStatus, bin_directions
-from tracker.maker_sim import THERMAL_POWER_ON, SimulatedMaker
+from tracker.maker_sim import SimulatedMaker, cold
 from tracker.protocol import RawSample
 from tracker.thermal import ThermalProcedure, ThermalStatus, thermal_calibration
 
@@ -295,12 +295,6 @@ class BoardSetup:
             self.applied(self.calibration)
 
 
-def cold(maker: SimulatedMaker) -> SimulatedMaker:
-    """The simulated maker's board unplugged until it is cold and plugged back in: its warm-up starts again
-    (the power-on the simulated maker's own warm-up calibration uses, :func:`tracker.maker_sim.warm_up`)."""
-    return SimulatedMaker(maker.errors, maker.seed, maker.rate_hz, power_on=THERMAL_POWER_ON)
-
-
 def calibration_notice(calibration: BoardCalibration, loaded: str) -> str:
     """What the game says when a board connects: what was loaded, or that nothing was (offering the setup)."""
     if calibration.procedures:
@@ -333,7 +327,7 @@ class MakerInput(SampleInput):
     def power_cycle(self) -> None:
         """The maker unplugs the board, lets it cool, and plugs it back in: its next power-on (the
         warm-up starts again from cold) and its clock from 0."""
-        self.maker = cold(self.maker)
+        self.maker = cold(self.maker, self.maker.rate_hz)
         self.t, self._next = 0.0, 0
 
     def arrived(self) -> list[P.RawSample | P.FusedSample]:
