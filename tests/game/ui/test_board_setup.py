@@ -22,7 +22,7 @@ import pytest  # noqa: E402
 from hypothesis import given, settings, strategies as st  # noqa: E402
 
 from game.ui.app import App, BoardSetupScreen, Menu, Play  # noqa: E402
-from game.ui.board_setup import (ACCEL, ACCEL_DONE, MAG, MAG_DONE, WARM, WARM_DONE, WARM_WAIT, BoardSetup,  # noqa: E402
+from game.ui.board_setup import (ACCEL, ACCEL_DONE, FAILED, MAG, MAG_DONE, WARM, WARM_DONE, WARM_WAIT, BoardSetup,  # noqa: E402
                                  MakerInput, fresh_samples)
 from game.ui.preferences import Preferences  # noqa: E402
 from game.ui.render.board import (BOARD_FACES, face_normal, globe_cells, globe_image, rotation_to_up,  # noqa: E402
@@ -165,6 +165,16 @@ def test_the_warm_up_waits_for_a_board_that_just_powered_up():
     setup.feed([s._replace(t=s.t - 500.0) for s in still])  # unplugged and plugged back in: its clock restarts
     assert setup.phase == WARM and setup.warm_status.die_c == pytest.approx(30.0, abs=0.01)
     setup.redo()  # R while it warms: wait for the board again
+    assert setup.phase == WARM_WAIT
+
+
+def test_a_board_without_temperatures_fails_the_warm_up_with_its_reason_and_saves_nothing(tmp_path):
+    setup = BoardSetup("imu-71", directory=tmp_path)
+    setup.start(WARM)  # S: on the board as it is
+    setup.feed([P.RawSample(1.0, 0, 0, (0, 0, 2048), (0, 0, 0), None, 400)])  # a firmware before the TEMP frame
+    assert setup.phase == FAILED and "flash the current firmware" in setup.message()
+    assert list(tmp_path.iterdir()) == []
+    setup.redo()  # R: wait for the board again
     assert setup.phase == WARM_WAIT
 
 
