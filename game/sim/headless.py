@@ -244,7 +244,7 @@ def _play(config: MatchConfig, progress: Callable[[str], None] | None) -> dict:
     from ..ui.preferences import Preferences
     from ..ui.session_events import recorder
 
-    wall0 = time.perf_counter()
+    setup0 = time.perf_counter()  # the board built and calibrated by its maker, the app started
     profile, seed = config.profile, config.seed
     bot = Bot(DIFFICULTIES[config.difficulty], profile, seed)
     sim = profile.simulator(bot.script.motion, seed)
@@ -271,6 +271,7 @@ def _play(config: MatchConfig, progress: Callable[[str], None] | None) -> dict:
         game.walker = lambda: walking[0]
         game.on_launch = lambda event: seen.launches.append(_body_frame(event, game.avatar.body_yaw))
         wire.write(board.hello())
+        wall0 = time.perf_counter()  # play: from the board's hello to the end
         frame, t, next_report = 0, 0.0, float(PROGRESS_S)
         try:
             while True:
@@ -301,7 +302,7 @@ def _play(config: MatchConfig, progress: Callable[[str], None] | None) -> dict:
             seen.rss_mb.append(_rss_mb())
             app.close()
             wire.close()
-    return _report(config, bot, board, source, game.arena, seen, time.perf_counter() - wall0)
+    return _report(config, bot, board, source, game.arena, seen, (wall0 - setup0, time.perf_counter() - wall0))
 
 
 def _screen(screen: object, names: dict[type, str]) -> Screen:
@@ -311,7 +312,10 @@ def _screen(screen: object, names: dict[type, str]) -> Screen:
 
 
 def _report(config: MatchConfig, bot: Bot, board: SimBoard, source: WireInput, arena, seen: Observed,
-            wall_s: float) -> dict:
+            walls: tuple[float, float]) -> dict:
+    """The match's report; ``walls``: the wall seconds of its setup (the simulated maker's calibrations
+    of the board, the app) and of its play (``sim_speed`` is the play's)."""
+    setup_s, wall_s = walls
     t_end = seen.play_end or 0.0
     result = TrialResult(true_launches=len(bot.launches))
     unmatched = score_launches(bot.launches, bot.script.idle_intervals, seen.launches, result)
@@ -342,7 +346,8 @@ def _report(config: MatchConfig, bot: Bot, board: SimBoard, source: WireInput, a
                      "samples_stalled": board.tally.samples_stalled},
     }
     report["timing"] = {"compiled": bool(compiled.modules()),
-                        "wall_s": round(wall_s, 3), "sim_speed": round(t_end / wall_s, 1),
+                        "setup_s": round(setup_s, 3), "wall_s": round(wall_s, 3),
+                        "sim_speed": round(t_end / wall_s, 1),
                         "rss_mb_after_first_minute": round(seen.rss_mb[0], 1) if len(seen.rss_mb) > 1 else None,
                         "rss_mb_end": round(seen.rss_mb[-1], 1),
                         "peak_rss_mb": round(_peak_rss_mb(), 1)}
@@ -447,6 +452,7 @@ def summarise(reports: list[dict], wall_s: float) -> dict:
         "game_overs": sum(1 for r in reports if r["game_over"]),
         "abandoned": sum(1 for r in reports if r["abandoned"]),
         "timing": {"compiled": bool(compiled.modules()), "wall_s": round(wall_s, 3),
+                   "setup_s": round(sum(r["timing"]["setup_s"] for r in reports), 3),
                    "simulated_s": round(simulated, 2),
                    "sim_speed": round(simulated / wall_s, 1) if wall_s > 0 else None},
     }
