@@ -91,7 +91,8 @@ MAG_FULL_SCALE_UT = 4912.0
 # output noise of 0.3-1.0 uT RMS per axis by its power preset, 0.6 uT at its regular preset. We
 # take 0.6 uT RMS at the AK8963's 100 Hz continuous mode (4 counts of 0.15 uT) as white noise.
 MAG_NOISE_RMS_UT = 0.6
-MAG_NOISE_DENSITY = MAG_NOISE_RMS_UT / math.sqrt(100.0)  # uT/sqrt(Hz)
+MAG_RATE_HZ = 100.0  # the AK8963's continuous measurement mode 2 (MS1356-E-02, sec. 6.4.3.2), the firmware's
+MAG_NOISE_DENSITY = MAG_NOISE_RMS_UT / math.sqrt(MAG_RATE_HZ)  # uT/sqrt(Hz)
 WARMUP_SPAN_S = 600.0  # ErrorModel.warmup is the offset's change over this long after power-on
 # The MPU-9250's zero-rate output varies by +-30 deg/s over -40 to +85 degC (PS-MPU-9250A-01, table 1):
 # at most 0.24 deg/s per degC. A warm-up of w deg/s warms the die by w / that (die_temperature): the
@@ -230,6 +231,13 @@ class ErrorModel:
     made at one power-on leaves r (u_play - u_calibration) at another: on average
     r 4/3 of the warm-up (the mean distance of two random points on the unit
     sphere is 4/3), so r = 0.2 leaves the 27 % the compensation above left.
+
+    A sensor with an output rate of its own (``rate_hz``) below the sample rate
+    makes a reading at each of its ticks, t = m / rate_hz, which the board reads
+    at its first sample at or after the tick and sends again at every sample
+    until the next one (the firmware holds the AK8963's reading between its
+    100 Hz measurements: firmware/energyball/imu.h). Each reading's white noise
+    is that of one measurement at that rate: std = density * sqrt(rate_hz).
     """
 
     noise_density: float = 0.0  # white noise per sqrt(Hz): std = density * sqrt(rate)
@@ -241,6 +249,7 @@ class ErrorModel:
     warmup: float = 0.0  # the offset's change over the first WARMUP_SPAN_S after power-on (sample 0)
     warmup_tau_s: float = 150.0  # thermal time constant of the warm-up curve
     warmup_unexplained: float = 0.0  # share r of the warm-up that differs at every power-on (above)
+    rate_hz: float = 0.0  # the sensor's own output rate (0: a reading at every sample; below)
 
 
 @dataclass(frozen=True)
@@ -363,7 +372,7 @@ def mpu9250(noise: bool = True, offset: bool = True, scale: bool = False,
                        scale_max=SCALE_TOLERANCE * scale, resolution=acc_fs / 32768,
                        full_scale=acc_fs),
         mag=ErrorModel(noise_density=MAG_NOISE_DENSITY * noise, resolution=MAG_UT_PER_COUNT,
-                       full_scale=MAG_FULL_SCALE_UT),
+                       full_scale=MAG_FULL_SCALE_UT, rate_hz=MAG_RATE_HZ),
     )
 
 
@@ -492,7 +501,8 @@ class _ErrorProcess:
             self.warmup = model.warmup * ((1.0 - r) * _directions(_rng(seed, kind, _WARMUP_KEY), shape)
                                           + r * _directions(_rng(seed, kind, _POWER_ON_KEY, power_on), shape))
         self.rate_hz = rate_hz
-        self._white_std = model.noise_density * math.sqrt(rate_hz)
+        self._held = 0.0 < model.rate_hz < rate_hz  # a sensor slower than the samples: its readings held
+        self._white_std = model.noise_density * math.sqrt(model.rate_hz if self._held else rate_hz)
         self._step_std = model.drift / math.sqrt(rate_hz)
         self._walk_starts = [np.zeros(shape)]  # the drift before each block
         self._block: tuple[int, Array] | None = None  # the latest block, for streaming
@@ -529,6 +539,15 @@ class _ErrorProcess:
         if m.resolution > 0:
             x = np.round(x / m.resolution) * m.resolution
         return np.clip(x, -m.full_scale, m.full_scale)
+
+    def read_at(self, k: NDArray[np.int64]) -> NDArray[np.int64]:
+        """The samples whose readings samples ``k`` carry (:class:`ErrorModel`): ``k`` itself, or for a
+        sensor with a slower output rate the first sample at or after its latest tick."""
+        if not self._held:
+            return k
+        ratio = self.rate_hz / self.model.rate_hz  # samples per tick
+        ticks = np.floor(k / ratio + 1e-9)
+        return np.ceil(ticks * ratio - 1e-9).astype(np.int64)
 
     def _warmup_curve(self, k: NDArray[np.int64]) -> Array:
         return warmup_curve(k / self.rate_hz, self.model.warmup_tau_s)
@@ -810,6 +829,20 @@ class SampleStream:
         """The true elbow angles of samples k0 to k1 - 1, in degrees."""
         return self.sim.flex_deg(np.arange(k0, k1) / self.rate_hz)
 
+    def _mag(self, k: NDArray[np.int64], field: Array) -> Array:
+        """The magnetometer's readings that samples ``k`` carry, ``field`` (what it feels at samples ``k``)
+        measured at the samples each reading was made (held: :meth:`_ErrorProcess.read_at`)."""
+        process = self._processes["mag"]
+        read = process.read_at(k)
+        if read is k:
+            return process.measure(field, k)
+        k0 = int(k[0]) if len(k) else 0
+        first = int(read[0]) if len(k) else 0
+        if first < k0:  # the block's first reading was made before it
+            earlier = self.sim.truth(np.arange(first, k0) / self.rate_hz)
+            field = np.concatenate([self._magnetic.field(earlier), field])
+        return process.measure(field[read - first], read)
+
     def block(self, k0: int, k1: int) -> SimData:
         """Samples number ``k0`` to ``k1 - 1``, measured and true."""
         if not 0 <= k0 <= k1:
@@ -821,7 +854,7 @@ class SampleStream:
         volts = circuit.volts(self.sim.flex_sensor.ohms(flex))
         mag = self._magnetic
         return SimData(truth.t, p["gyr"].measure(truth.gyr, k), p["acc"].measure(truth.acc, k),
-                       p["mag"].measure(mag.field(truth), k), circuit.adc(p["flex"].measure(volts, k)),
+                       self._mag(k, mag.field(truth)), circuit.adc(p["flex"].measure(volts, k)),
                        truth, {kind: q.offset for kind, q in p.items()},
                        {kind: q.scale for kind, q in p.items()}, {kind: q.warmup for kind, q in p.items()},
                        mag.hard_iron, mag.soft_iron, flex, die_temperature(self.sim.errors.gyr, truth.t))

@@ -244,7 +244,7 @@ def _play(config: MatchConfig, progress: Callable[[str], None] | None) -> dict:
     from ..ui.preferences import Preferences
     from ..ui.session_events import recorder
 
-    setup0 = time.perf_counter()  # the board built and calibrated by its maker, the app started
+    prepare0 = time.perf_counter()  # the board built and calibrated by its maker, the app built
     profile, seed = config.profile, config.seed
     bot = Bot(DIFFICULTIES[config.difficulty], profile, seed)
     sim = profile.simulator(bot.script.motion, seed)
@@ -302,7 +302,7 @@ def _play(config: MatchConfig, progress: Callable[[str], None] | None) -> dict:
             seen.rss_mb.append(_rss_mb())
             app.close()
             wire.close()
-    return _report(config, bot, board, source, game.arena, seen, (wall0 - setup0, time.perf_counter() - wall0))
+    return _report(config, bot, board, source, game.arena, seen, (wall0 - prepare0, time.perf_counter() - wall0))
 
 
 def _screen(screen: object, names: dict[type, str]) -> Screen:
@@ -313,9 +313,9 @@ def _screen(screen: object, names: dict[type, str]) -> Screen:
 
 def _report(config: MatchConfig, bot: Bot, board: SimBoard, source: WireInput, arena, seen: Observed,
             walls: tuple[float, float]) -> dict:
-    """The match's report; ``walls``: the wall seconds of its setup (the simulated maker's calibrations
-    of the board, the app) and of its play (``sim_speed`` is the play's)."""
-    setup_s, wall_s = walls
+    """The match's report; ``walls``: the wall seconds of its preparation (the simulated maker's
+    calibrations of its board, the app built) and of its play (``sim_speed`` is the play's)."""
+    prepare_s, wall_s = walls
     t_end = seen.play_end or 0.0
     result = TrialResult(true_launches=len(bot.launches))
     unmatched = score_launches(bot.launches, bot.script.idle_intervals, seen.launches, result)
@@ -346,7 +346,7 @@ def _report(config: MatchConfig, bot: Bot, board: SimBoard, source: WireInput, a
                      "samples_stalled": board.tally.samples_stalled},
     }
     report["timing"] = {"compiled": bool(compiled.modules()),
-                        "setup_s": round(setup_s, 3), "wall_s": round(wall_s, 3),
+                        "prepare_s": round(prepare_s, 3), "wall_s": round(wall_s, 3),
                         "sim_speed": round(t_end / wall_s, 1),
                         "rss_mb_after_first_minute": round(seen.rss_mb[0], 1) if len(seen.rss_mb) > 1 else None,
                         "rss_mb_end": round(seen.rss_mb[-1], 1),
@@ -452,7 +452,7 @@ def summarise(reports: list[dict], wall_s: float) -> dict:
         "game_overs": sum(1 for r in reports if r["game_over"]),
         "abandoned": sum(1 for r in reports if r["abandoned"]),
         "timing": {"compiled": bool(compiled.modules()), "wall_s": round(wall_s, 3),
-                   "setup_s": round(sum(r["timing"]["setup_s"] for r in reports), 3),
+                   "prepare_s": round(sum(r["timing"]["prepare_s"] for r in reports), 3),
                    "simulated_s": round(simulated, 2),
                    "sim_speed": round(simulated / wall_s, 1) if wall_s > 0 else None},
     }

@@ -93,12 +93,26 @@ def test_a_warm_up_without_a_time_constant_is_a_clear_error():
 # ------------------------------------------------------------------ magnetometer
 
 
-def test_the_ak8963_white_noise_has_its_density():
-    rate = 200.0
+@pytest.mark.parametrize("rate", [100.0, 200.0, 250.0])
+def test_the_ak8963_measures_at_100_hz_with_its_noise_and_the_board_holds_each_reading(rate):
     data = Simulator(arm_chain(), still(), mpu9250(offset=False), seed=5).simulate(60.0, rate)
-    e = (data.mag - data.truth.mag)[:, 0]
-    std = MAG_NOISE_DENSITY * math.sqrt(rate)  # 0.85 uT at 200 Hz (0.6 uT at the AK8963's 100 Hz)
+    mag = data.mag[:, 0]
+    # Its ticks at m / 100 s, each read at the first sample at or after it: worked by hand, samples
+    # 0, 2, 4, ... at 200 Hz; at 250 Hz (4 ms apart) samples 0, 3, 5, 8, 10, ... (ticks at 0, 10, 20, 30 ms).
+    t = np.arange(len(mag)) / rate
+    first = np.ceil(np.floor(t * 100.0 + 1e-9) / 100.0 * rate - 1e-9).astype(int)
+    assert first[:11].tolist() == {100.0: list(range(11)), 200.0: [0, 0, 2, 2, 4, 4, 6, 6, 8, 8, 10],
+                                   250.0: [0, 0, 0, 3, 3, 5, 5, 5, 8, 8, 10]}[rate]
+    assert np.array_equal(mag, mag[first])  # every sample carries its tick's reading
+    readings = mag[np.unique(first)]
+    assert len(readings) == pytest.approx(60.0 * 100.0, abs=1)
+    # ... and each reading has the noise of one measurement at 100 Hz: 0.6 uT RMS (MAG_NOISE_RMS_UT),
+    # with the 0.15 uT counts' rounding.
+    e = readings - data.truth.mag[np.unique(first), 0]
+    std = MAG_NOISE_DENSITY * math.sqrt(100.0)
+    assert std == pytest.approx(0.6)
     assert e.std(axis=0) == pytest.approx([math.sqrt(std**2 + 0.15**2 / 12)] * 3, rel=0.03)
+    assert abs(np.corrcoef(e[1:, 0], e[:-1, 0])[0, 1]) < 0.05  # reading to reading: independent
 
 
 def test_hard_iron_shifts_the_centre_of_the_field_sphere_by_exactly_h():

@@ -149,6 +149,7 @@ class DefaultParams:
     mag_turn_th: float = 0.1  # "the board has turned": spread of its axes over the window (rad^2)
     mag_on_t: float = 15.0  # the field is used (again) after being consistent this long while turning
     mag_head_lp_tau: float = 0.5  # the heading innovation is low-passed this much before its spread is judged
+    mag_held_t: float = 0.05  # a reading equal to the last is the board's held one, used at least this often
     mag_head_sd: float = math.radians(2.0)  # a field whose heading spreads up to this turns the heading at
     # tau_mag; one that spreads s > this, s / this times more slowly (a steady-state Kalman gain).
     # BROAD's undisturbed real recordings spread 0.7-1.3 deg (median), 1.0-3.1 (90th percentile)
@@ -195,6 +196,8 @@ class DefaultState:
     win_dip_var: float = 0.0  # ... and its variance (rad^2)
     win_y: Vec = (0.0, 0.0, 0.0)  # the window's mean of world y in the sensor frame
     win_z: Vec = (0.0, 0.0, 0.0)  # and of world z: how far the board turned
+    mag_last: Vec = (0.0, 0.0, 0.0)  # the last magnetometer reading used ...
+    mag_dt: float = 0.0  # ... and the seconds since
     win_head: tuple[float, float] = (1.0, 0.0)  # ... its window's mean: its length says how it spreads
     mag_good_t: float = 0.0  # seconds an unusable field has been consistent while turning
     mag_checked: bool = False  # the field has proved consistent while the board turned
@@ -275,9 +278,15 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
                 (cx, cy), t = s.tilt_sum, s.tilt_dt
                 self._learn_bias_in_motion(cx / t, cy / t, t)
                 s.tilt_sum, s.tilt_dt, s.tilt_n = (0.0, 0.0), 0.0, 0
-        # 3. Heading from the magnetometer, with disturbance rejection (VQF sec. 3.4).
+        # 3. Heading from the magnetometer, with disturbance rejection (VQF sec. 3.4). The AK8963
+        #    measures at 100 Hz and the board sends its latest reading with every sample: a reading
+        #    sent again tells nothing new, and turned by this sample's orientation it would misstate
+        #    the heading by the turn since it was made, so it waits, its time added to the next one's.
         if mag is not None:
-            self._correct_heading(q6, mag, dt)
+            s.mag_dt += dt
+            if mag != s.mag_last or s.mag_dt >= p.mag_held_t:  # (a still board's readings may repeat)
+                self._correct_heading(q6, mag, s.mag_dt)
+                s.mag_last, s.mag_dt = mag, 0.0
         self.flags.mag_unusable = s.mag_reason != "" or (s.mag_checked and self.heading_spread > p.mag_weak_sd)
         s.q = normalize(mul(about_z(s.heading), q6))
         return s.q

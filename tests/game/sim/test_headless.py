@@ -83,15 +83,15 @@ def test_command_line_prints_json_and_progress(tmp_path):
     report = json.loads(out.stdout)
     assert [m["seed"] for m in report["matches"]] == [3, 4]
     assert report["summary"]["matches"] == 2 and report["summary"]["timing"]["sim_speed"] > 0
-    # A match's speed is its play's; its setup (the maker's calibrations, the app) is timed apart,
+    # A match's speed is its play's; its preparation (the maker's calibrations, the app) is timed apart,
     # and the run's wall clock holds both.
     for match in report["matches"]:
         timing = match["timing"]
-        assert timing["setup_s"] > 0 and timing["sim_speed"] == pytest.approx(match["duration_s"] / timing["wall_s"],
-                                                                              rel=0.05)
+        assert timing["prepare_s"] > 0
+        assert timing["sim_speed"] == pytest.approx(match["duration_s"] / timing["wall_s"], rel=0.05)
     whole = report["summary"]["timing"]
-    assert whole["setup_s"] == pytest.approx(sum(m["timing"]["setup_s"] for m in report["matches"]), abs=0.002)
-    assert whole["wall_s"] >= sum(m["timing"]["setup_s"] + m["timing"]["wall_s"] for m in report["matches"]) - 0.01
+    assert whole["prepare_s"] == pytest.approx(sum(m["timing"]["prepare_s"] for m in report["matches"]), abs=0.002)
+    assert whole["wall_s"] >= sum(m["timing"]["prepare_s"] + m["timing"]["wall_s"] for m in report["matches"]) - 0.01
     assert "match 2/2" in out.stderr
 
 
