@@ -91,7 +91,7 @@ MAG_FULL_SCALE_UT = 4912.0
 # output noise of 0.3-1.0 uT RMS per axis by its power preset, 0.6 uT at its regular preset. We
 # take 0.6 uT RMS at the AK8963's 100 Hz continuous mode (4 counts of 0.15 uT) as white noise.
 MAG_NOISE_RMS_UT = 0.6
-MAG_RATE_HZ = 100.0  # the AK8963's continuous measurement mode 2 (MS1356-E-02, sec. 6.4.3.2), the firmware's
+MAG_RATE_HZ = 100.0  # the AK8963's continuous measurement mode 2 (data sheet MS1356-E-02), the firmware's
 MAG_NOISE_DENSITY = MAG_NOISE_RMS_UT / math.sqrt(MAG_RATE_HZ)  # uT/sqrt(Hz)
 WARMUP_SPAN_S = 600.0  # ErrorModel.warmup is the offset's change over this long after power-on
 # The MPU-9250's zero-rate output varies by +-30 deg/s over -40 to +85 degC (PS-MPU-9250A-01, table 1):
