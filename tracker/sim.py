@@ -832,12 +832,10 @@ class SampleStream:
     def _mag(self, k: NDArray[np.int64], field: Array) -> Array:
         """The magnetometer's readings that samples ``k`` carry, ``field`` (what it feels at samples ``k``)
         measured at the samples each reading was made (held: :meth:`_ErrorProcess.read_at`)."""
-        process = self._processes["mag"]
-        read = process.read_at(k)
-        if read is k:
+        process, read = self._processes["mag"], self._processes["mag"].read_at(k)
+        if not len(k):
             return process.measure(field, k)
-        k0 = int(k[0]) if len(k) else 0
-        first = int(read[0]) if len(k) else 0
+        k0, first = int(k[0]), int(read[0])
         if first < k0:  # the block's first reading was made before it
             earlier = self.sim.truth(np.arange(first, k0) / self.rate_hz)
             field = np.concatenate([self._magnetic.field(earlier), field])

@@ -422,10 +422,6 @@ def figures() -> None:
         print(f"bias error from 5 deg/s stays below {level} deg/s after {(after[-1] + 1) / RATE:5.1f} s")
 
 
-if __name__ == "__main__":
-    figures()
-
-
 def _turning_heading_error(params) -> float:
     """The heading's error (deg) after 40 s of a level board turning at 180 deg/s about the vertical in a
     clean field (60 deg of dip), ideal sensors at 200 Hz, the magnetometer's reading made at 100 Hz and
@@ -450,3 +446,7 @@ def test_a_reading_sent_again_is_not_taken_for_a_new_one():
     used_again = _turning_heading_error(dataclasses.replace(DefaultFilter().params, mag_held_t=0.0))
     assert abs(used_again) == pytest.approx(0.45, abs=0.05)
     assert abs(_turning_heading_error(DefaultFilter().params)) < 0.05
+
+
+if __name__ == "__main__":
+    figures()

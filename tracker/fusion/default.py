@@ -190,14 +190,14 @@ class DefaultState:
     mag_dip: float = 0.0  # reference dip angle (rad)
     mag_samples: int = 0  # undisturbed magnetometer samples used so far
     mag_t: float = 0.0  # seconds of magnetometer samples seen (the window fills)
+    mag_last: Vec = (0.0, 0.0, 0.0)  # the last magnetometer reading used ...
+    mag_dt: float = 0.0  # ... and the seconds since
     win_norm: float = 0.0  # the window's mean field norm (uT) ...
     win_norm_var: float = 0.0  # ... and its variance (uT^2)
     win_dip: float = 0.0  # the window's mean dip (rad) ...
     win_dip_var: float = 0.0  # ... and its variance (rad^2)
     win_y: Vec = (0.0, 0.0, 0.0)  # the window's mean of world y in the sensor frame
     win_z: Vec = (0.0, 0.0, 0.0)  # and of world z: how far the board turned
-    mag_last: Vec = (0.0, 0.0, 0.0)  # the last magnetometer reading used ...
-    mag_dt: float = 0.0  # ... and the seconds since
     win_head: tuple[float, float] = (1.0, 0.0)  # ... its window's mean: its length says how it spreads
     mag_good_t: float = 0.0  # seconds an unusable field has been consistent while turning
     mag_checked: bool = False  # the field has proved consistent while the board turned
