@@ -225,6 +225,19 @@ class Game:
         self.arena = Arena(self.arena_settings, seed=self.seed)
         self.gestures = GestureMachine(self.gesture_settings())
         self.avatar = Avatar(BodySettings(side=self.prefs.side), self.avatar.wearing)
+        self.stand_avatar()
+
+    def place_avatar(self) -> None:
+        """The avatar where the arena's player stands, turned the way he faces (play: posed by the
+        frame's update)."""
+        player = self.arena.player
+        self.avatar.position, self.avatar.body_yaw = (player.x, player.y), player.yaw
+
+    def stand_avatar(self) -> None:
+        """The avatar placed and posed where the player stands: the menu and the calibration show him
+        at the start as play will."""
+        self.place_avatar()
+        self.avatar.forward_kinematics()
 
     def gesture_settings(self) -> GestureSettings:
         p = self.prefs
@@ -435,8 +448,7 @@ class Play:
             return Pause(game, "The board went away (cable pulled?). Plug it back in: the game waits.",
                          resume_when=lambda: not game.link_lost())
         arena = game.arena
-        game.avatar.position = (arena.player.x, arena.player.y)
-        game.avatar.body_yaw = arena.player.yaw
+        game.place_avatar()
         state = game.avatar.update(game.pose(dt))
         gestures = game.gestures.update(state)
         for event in gestures:

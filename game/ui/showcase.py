@@ -89,6 +89,7 @@ def town_scene(app: App, seed: int, x: float, y: float, yaw: float) -> None:
     app.game.new_round()
     player = app.game.arena.player
     player.x, player.y, player.yaw = x, y, yaw
+    app.game.stand_avatar()
 
 
 def busy_arena(app: App, zombies: int = 60, balls: int = 3, seed: int = 1, health: float = 1e9) -> None:

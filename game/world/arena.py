@@ -52,6 +52,7 @@ from .arena_model import (Ball, BallState, ArenaEvent, Controls, HeldBall, Playe
                           ZombieState)
 from .collision import inside, push_out, sweep_sphere
 from .navigation import NavSettings, Navigator
+from .sight import open_yaw
 from .town import Town, make_town
 
 TAU = 2.0 * math.pi
@@ -439,7 +440,8 @@ class Arena:
         if getattr(self, "town", None) is not town:
             self.town = town
             self.navigator = Navigator(town, NavSettings(agent_radius_m=s.zombie_radius_m))
-        self.player = Player(x=town.start[0], y=town.start[1], health=float(s.player_max_health))
+        self.player = Player(x=town.start[0], y=town.start[1], yaw=open_yaw(town, town.start),
+                             health=float(s.player_max_health))
         self.zombies: list[Zombie] = []
         self.balls: list[Ball] = []
         self.held = HeldBall()

@@ -112,7 +112,9 @@ def test_a_bot_keeps_a_slow_player_within_the_speeds_a_profile_allows():
 
 
 def _behind(*obstacles: Obstacle) -> Arena:
-    return Arena(seed=1, town=Town(half_size_m=18.0, obstacles=obstacles, spawn_points=OPEN.spawn_points))
+    arena = Arena(seed=1, town=Town(half_size_m=18.0, obstacles=obstacles, spawn_points=OPEN.spawn_points))
+    arena.player.yaw = 0.0  # the cases are drawn facing north (a match would start facing its open view)
+    return arena
 
 
 def test_a_zombie_behind_a_building_is_not_thrown_at_but_one_in_sight_is():

@@ -521,6 +521,7 @@ def test_the_player_slides_along_a_wall():
     """Walking north-east into the wall's face: the northward part is taken back, the eastward kept."""
     long_wall = Obstacle("wall", -10.0, 5.0, 10.0, 5.3, 2.5)
     arena = walled(long_wall)
+    arena.player.yaw = 0.0  # facing the wall (the start would face along it: the open view)
     run(arena, 4.0, Controls(forward=1.0, strafe=1.0))  # 3 m/s at 45 degrees: 2.12 m/s each way
     p = arena.player  # at the face after 4.65 / 2.12 = 2.2 s, then along it
     assert p.y == pytest.approx(long_wall.y0 - NO_WAVES.player_radius_m)
@@ -585,3 +586,12 @@ def test_the_per_step_constants_are_worked_out_once_from_the_settings():
     s = ArenaSettings(zombie_radius_m=0.4)
     assert s._per_step is s._per_step and s._per_step.gap == 0.8
     assert s == ArenaSettings(zombie_radius_m=0.4) and "_per_step" not in repr(s)
+
+
+def test_the_player_starts_facing_where_the_view_is_open():
+    # A building across the north of the start square; the streets run east-west: the player
+    # starts facing west (yaw 90 deg, the first open axis from north turning left), not the wall.
+    town = Town(half_size_m=24.0, obstacles=(Obstacle("building", -10.0, 5.0, 10.0, 12.0, 8.0),),
+                spawn_points=((0.0, -23.0),))
+    arena = Arena(NO_WAVES, town=town)
+    assert arena.player.yaw == pytest.approx(math.pi / 2)

@@ -1,9 +1,13 @@
-"""Line of sight: buildings block it, lamp posts do not, and an eye sees over a low wall."""
+"""Line of sight: buildings block it, lamp posts do not, and an eye sees over a low wall; the start faces
+where the view is open."""
+
+import math
 
 import numpy as np
+import pytest
 
 from game.world.collision import segment_box
-from game.world.sight import line_of_sight, line_of_sight_3d, sees
+from game.world.sight import clear_distance, line_of_sight, line_of_sight_3d, open_yaw, sees
 from game.world.town import Obstacle, Town, make_town
 
 
@@ -62,3 +66,32 @@ def test_the_cells_walked_along_the_line_find_every_obstacle_that_blocks_it():
         assert line_of_sight_3d(town, eye, chest) == brute_3d
         blocked += not brute
     assert 50 < blocked < 290
+
+
+def test_the_start_faces_the_one_open_way_out_of_a_walled_yard():
+    # Walls 3 m north, south and west of the origin; east is open to the town's edge (20 m).
+    # Worked by hand: north 3 m, north-east meets the north wall at (3, 3), 3 sqrt(2) m away;
+    # yaw -90 deg faces +x (yaw 0 faces +y, positive turns left).
+    yard = town_of(Obstacle("wall", -20.0, 3.0, 20.0, 4.0, 3.0), Obstacle("wall", -20.0, -4.0, 20.0, -3.0, 3.0),
+                   Obstacle("wall", -4.0, -3.0, -3.0, 3.0, 3.0))
+    assert clear_distance(yard, (0.0, 0.0), 0.0, 20.0) == pytest.approx(3.0)
+    assert clear_distance(yard, (0.0, 0.0), -math.pi / 4, 20.0) == pytest.approx(3.0 * math.sqrt(2.0))
+    assert clear_distance(yard, (0.0, 0.0), -math.pi / 2, 20.0) == pytest.approx(20.0)
+    assert open_yaw(yard, (0.0, 0.0)) == pytest.approx(-math.pi / 2)
+
+
+def test_of_equal_views_the_start_faces_along_the_axes_and_north_first():
+    assert open_yaw(town_of(), (0.0, 0.0)) == 0.0  # open every way: north
+    # A building north-west to north-east (and a lamp post, which hides nothing, due south):
+    # north and the diagonals beside it are blocked; west, east and south see 20 m, as do the
+    # south diagonals: west (the first axis from north, turning left) wins.
+    blocked = town_of(Obstacle("building", -8.0, 5.0, 8.0, 9.0, 6.0), Obstacle("lamp_post", -0.1, -6.0, 0.1, -5.8, 4.5))
+    assert open_yaw(blocked, (0.0, 0.0)) == pytest.approx(math.pi / 2)
+
+
+def test_every_generated_town_starts_facing_down_a_street_clear_to_its_edge():
+    for seed in range(12):
+        town = make_town(seed)
+        yaw = open_yaw(town, town.start)
+        assert clear_distance(town, town.start, yaw, town.half_size_m) == pytest.approx(town.half_size_m), seed
+        assert yaw % (math.pi / 2) == pytest.approx(0.0), seed  # along the streets, not across a corner
