@@ -190,7 +190,7 @@ class AccelProcedure:
             return self._status
         gap = math.inf if self._last_t is None else t - self._last_t
         self._last_t = t
-        up, tilt = pose_label(np.array(acc))
+        up, tilt = pose_label(acc)
         face = up if tilt <= self.params.pose.max_tilt else None
         if 0.0 < gap <= self.params.max_gap_s:
             self._detector.update(gyr, acc, gap)

@@ -705,11 +705,16 @@ class SixPoseResult:
     residual: float
 
 
-def pose_label(mean: Array) -> tuple[str, float]:
-    """Which axis points up in a pose, and how far (rad) the pose leans from it."""
-    axis = int(np.argmax(np.abs(mean)))
-    cos_tilt = abs(mean[axis]) / np.linalg.norm(mean)
-    return ("+" if mean[axis] > 0 else "-") + "xyz"[axis], math.acos(min(1.0, cos_tilt))
+def pose_label(mean: Sequence[float] | Array) -> tuple[str, float]:
+    """Which axis points up in a pose, and how far (rad) the pose leans from it (the first axis of the
+    largest magnitude on a tie; a reading of no force at all leans 90 deg, from no face)."""
+    x, y, z = float(mean[0]), float(mean[1]), float(mean[2])
+    axis = 0 if abs(x) >= abs(y) and abs(x) >= abs(z) else 1 if abs(y) >= abs(z) else 2
+    up, norm = (x, y, z)[axis], math.sqrt(x * x + y * y + z * z)
+    if not norm > 0.0:
+        return "+" + "xyz"[axis], math.pi / 2
+    cos_tilt = abs(up) / norm
+    return ("+" if up > 0 else "-") + "xyz"[axis], math.acos(min(1.0, cos_tilt))
 
 
 def window_motion(gyr: Array, acc: Array, p: RestParams) -> str | None:

@@ -70,27 +70,42 @@ class Turn:
 
 def integrate_turn(t: Array, gyr: Array, bias0: Array, bias1: Array) -> tuple[Array, Array]:
     """R0 and E (:class:`Turn`) of the rates ``gyr`` (N, 3) at times ``t``, the bias moving linearly from
-    ``bias0`` at t[0] to ``bias1`` at t[-1]."""
+    ``bias0`` at t[0] to ``bias1`` at t[-1].
+
+    With T_k each step's rotation and R_k = T_1 ... T_k the turn so far, R0 = R_N, and the
+    steps' sum E = sum_k (T_k+1 ... T_N)^T diag(dtheta_k) (module docstring) is
+    R_N^T sum_k R_k diag(dtheta_k), since T_k+1 ... T_N = R_k^T R_N: every R_k at once
+    (:func:`_running_products`), no loop over the steps.
+    """
     span = t[-1] - t[0]
     share = (t - t[0]) / span if span > 0 else np.zeros_like(t)
     rates = gyr - (bias0 + share[:, None] * (bias1 - bias0))
     steps = 0.5 * (rates[1:] + rates[:-1]) * np.diff(t)[:, None]
-    rotation, jacobian = np.eye(3), np.zeros((3, 3))
-    for step in steps:
-        turn = _matrix(step)
-        rotation = rotation @ turn
-        jacobian = turn.T @ jacobian + np.diag(step)
-    return rotation, jacobian
+    if len(steps) == 0:
+        return np.eye(3), np.zeros((3, 3))
+    so_far = _running_products(_matrices(steps))
+    rotation = so_far[-1]
+    return rotation, rotation.T @ (so_far * steps[:, None, :]).sum(axis=0)
 
 
-def _matrix(theta: Array) -> Array:
-    """The rotation matrix of a rotation vector (Rodrigues' formula)."""
-    angle = float(np.linalg.norm(theta))
-    if angle == 0.0:
-        return np.eye(3)
-    k = theta / angle
-    cross = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + math.sin(angle) * cross + (1.0 - math.cos(angle)) * cross @ cross
+def _matrices(theta: Array) -> Array:
+    """The rotation matrices (N, 3, 3) of rotation vectors ``theta`` (N, 3) (Rodrigues' formula)."""
+    angle = np.linalg.norm(theta, axis=1)
+    k = np.divide(theta, angle[:, None], out=np.zeros_like(theta), where=angle[:, None] > 0)
+    cross = np.zeros((len(theta), 3, 3))
+    cross[:, 0, 1], cross[:, 0, 2], cross[:, 1, 2] = -k[:, 2], k[:, 1], -k[:, 0]
+    cross[:, 1, 0], cross[:, 2, 0], cross[:, 2, 1] = k[:, 2], -k[:, 1], k[:, 0]
+    return np.eye(3) + np.sin(angle)[:, None, None] * cross + (1.0 - np.cos(angle))[:, None, None] * cross @ cross
+
+
+def _running_products(m: Array) -> Array:
+    """M_1 M_2 ... M_k for every k (an inclusive scan of ``m`` (N, 3, 3) in log2 N batched products:
+    W. D. Hillis and G. L. Steele, "Data parallel algorithms", CACM 29(12), 1986)."""
+    out, shift = m.copy(), 1
+    while shift < len(out):
+        out[shift:] = out[:-shift] @ out[shift:]
+        shift *= 2
+    return out
 
 
 @dataclass(frozen=True)

@@ -136,6 +136,15 @@ def test_a_leaning_board_has_no_face_up_and_is_told_so():
     assert status.up is None and status.message == "put +z up, flat on the table (it leans 30 deg from a face)"
 
 
+def test_a_reading_of_no_force_at_all_is_no_face_and_captures_nothing():
+    """An accelerometer reading 0 on every axis (a board in free fall, or a dead sensor's zeros) points
+    nowhere: no face is up, and a second of it is no pose."""
+    procedure = AccelProcedure(AccelProcedureParams(hold_s=1.0))
+    statuses = [procedure.feed(s) for s in _lying((0.0, 0.0, 0.0), 0.0, 2.0)]
+    assert all(s.up is None for s in statuses) and not statuses[-1].captured
+    assert statuses[-1].message == "put +z up, flat on the table"
+
+
 def test_a_gap_in_the_samples_restarts_the_hold():
     procedure = AccelProcedure(AccelProcedureParams(hold_s=1.0))
     for s in _lying((0.0, 0.0, 9.81), 0.0, 0.9):

@@ -25,6 +25,35 @@ def test_rotate_back_is_the_transposed_rotation_of_scipy():
     np.testing.assert_allclose(rotate_back(theta, u), expected, atol=1e-12)
 
 
+def test_a_turn_is_its_steps_composed_and_its_jacobian_the_turns_sensitivity_to_the_scales():
+    """R0 is the steps' exact rotations composed in order (scipy's product of the trapezoidal steps), and
+    E is how the turn moves when the rates are scaled by 1 + d: R0^T R(d) = exp(E d) to first order
+    (central differences of scipy's rotations: R(1 - d)^T R(1 + d) = exp(2 E d)); one sample is no turn."""
+    rng = np.random.default_rng(4)
+    t = np.cumsum(rng.uniform(0.004, 0.006, 300))  # a tip of 180 deg over x in 1 s, a turn on the table
+    gyr = np.where((t < t[0] + 1.0)[:, None], [np.pi, 0.0, 0.0], [0.0, 0.0, 0.6]) + rng.normal(0.0, 0.02, (300, 3))
+    bias0, bias1 = np.array([0.01, -0.02, 0.0]), np.array([0.03, 0.0, -0.01])
+
+    def composed(scale: np.ndarray) -> Rotation:
+        rates = (gyr - (bias0 + ((t - t[0]) / (t[-1] - t[0]))[:, None] * (bias1 - bias0))) * scale
+        steps = 0.5 * (rates[1:] + rates[:-1]) * np.diff(t)[:, None]
+        turn = Rotation.identity()
+        for step in Rotation.from_rotvec(steps):
+            turn = turn * step
+        return turn
+
+    rotation, jacobian = integrate_turn(t, gyr, bias0, bias1)
+    np.testing.assert_allclose(rotation, composed(np.ones(3)).as_matrix(), atol=1e-12)
+    h = 1e-6
+    for i in range(3):
+        d = np.zeros(3)
+        d[i] = h
+        column = ((composed(1.0 - d).inv() * composed(1.0 + d)).as_rotvec()) / (2.0 * h)
+        np.testing.assert_allclose(jacobian[:, i], column, atol=1e-3)  # (E is pi-sized; a step off its
+        # axis leaves ~1e-4: each step is taken as exp(theta) exp(diag(d) theta), exact about one axis)
+    assert integrate_turn(t[:1], gyr[:1], bias0, bias1)[0] == pytest.approx(np.eye(3))
+
+
 RATE = 200.0
 
 
