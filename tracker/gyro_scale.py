@@ -42,6 +42,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from . import quat
+
 Array = NDArray[np.float64]
 
 
@@ -83,19 +85,9 @@ def integrate_turn(t: Array, gyr: Array, bias0: Array, bias1: Array) -> tuple[Ar
     steps = 0.5 * (rates[1:] + rates[:-1]) * np.diff(t)[:, None]
     if len(steps) == 0:
         return np.eye(3), np.zeros((3, 3))
-    so_far = _running_products(_matrices(steps))
+    so_far = _running_products(quat.to_matrix(quat.from_rotvec(steps)))
     rotation = so_far[-1]
     return rotation, rotation.T @ (so_far * steps[:, None, :]).sum(axis=0)
-
-
-def _matrices(theta: Array) -> Array:
-    """The rotation matrices (N, 3, 3) of rotation vectors ``theta`` (N, 3) (Rodrigues' formula)."""
-    angle = np.linalg.norm(theta, axis=1)
-    k = np.divide(theta, angle[:, None], out=np.zeros_like(theta), where=angle[:, None] > 0)
-    cross = np.zeros((len(theta), 3, 3))
-    cross[:, 0, 1], cross[:, 0, 2], cross[:, 1, 2] = -k[:, 2], k[:, 1], -k[:, 0]
-    cross[:, 1, 0], cross[:, 2, 0], cross[:, 2, 1] = k[:, 2], -k[:, 1], k[:, 0]
-    return np.eye(3) + np.sin(angle)[:, None, None] * cross + (1.0 - np.cos(angle))[:, None, None] * cross @ cross
 
 
 def _running_products(m: Array) -> Array:
