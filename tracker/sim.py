@@ -36,8 +36,10 @@ Sensor errors (the finger-tracking paper, sec. 3: white noise, zero offset, both
 data-sheet figures) are white noise, a constant offset, a warm-up drift of
 that offset, a random-walk drift, a scale error, quantisation and saturation
 (:class:`ErrorModel`). A real board adds its own magnetic errors and a room's
-field (:class:`MagneticErrors`) and the flex sensor's own dynamics
-(:class:`FlexDynamics`); :func:`realistic_errors` builds a typical board.
+field (:class:`MagneticErrors`), the flex sensor's own dynamics
+(:class:`FlexDynamics`) and the delays of the MPU-9250's low-pass filters
+(:attr:`SensorErrors.dlpf`, :mod:`tracker.mpu_dlpf`); :func:`realistic_errors`
+builds a typical board.
 Random numbers come from ``numpy.random.SeedSequence(seed, spawn_key=...)``
 keyed by sensor kind and block of sample indices, so an error is a function
 of the sample index alone: a batch and a stream (:meth:`Simulator.stream`,
@@ -52,7 +54,7 @@ values unchanged.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import Callable
 
 import numpy as np
@@ -60,6 +62,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import quat
 from .flex import FlexCircuit, FlexSensor
+from .mpu_dlpf import Dlpf, FractionalDelay
 from .motion import EARTH_FIELD_UT, GRAVITY, SensorReading
 from .protocol import MAG_UT_PER_COUNT, STANDARD_GRAVITY
 
@@ -351,6 +354,8 @@ class SensorErrors:
     flex: ErrorModel = ErrorModel()  # before the ADC, which quantises and saturates itself
     magnetic: MagneticErrors = MagneticErrors()
     flex_dynamics: FlexDynamics = FlexDynamics()
+    dlpf: bool = False  # the gyroscope and accelerometer read through the MPU-9250's low-pass
+    # filters as the firmware sets them for the sample rate: their delays (tracker.mpu_dlpf)
 
 
 def mpu9250(noise: bool = True, offset: bool = True, scale: bool = False,
@@ -396,7 +401,9 @@ def realistic_errors(gyro_bias_dps: float = TYPICAL_GYRO_BIAS_DPS, noise_scale: 
     densities times ``noise_scale``, the board's and the room's magnetic
     errors (:class:`MagneticErrors`), the flex sensor's dynamics
     (:class:`FlexDynamics`) and :data:`TYPICAL_FLEX_NOISE_COUNTS` of noise on
-    the flex circuit. The defaults, the TYPICAL_* constants, are a typical
+    the flex circuit. Its gyroscope and accelerometer read through the MPU-9250's
+    low-pass filters (:mod:`tracker.mpu_dlpf`: 5.9 ms and 4.88 ms late at 200 Hz).
+    The defaults, the TYPICAL_* constants, are a typical
     board within the cited ranges: gyroscope offsets within +-1 deg/s (the
     data sheet allows +-5), 4 degC of warming (1 deg/s, 27 % of it unpredictable
     from the die's temperature on average: :class:`ErrorModel`), 30 uT of hard iron
@@ -420,6 +427,7 @@ def realistic_errors(gyro_bias_dps: float = TYPICAL_GYRO_BIAS_DPS, noise_scale: 
                                 disturbance_ut=mag_disturbance_ut),
         flex_dynamics=FlexDynamics(hysteresis=flex_hysteresis_pct / 100.0, creep=flex_creep_pct / 100.0,
                                    nonlinearity=flex_nonlinearity_pct / 100.0),
+        dlpf=True,
     )
 
 
@@ -455,6 +463,11 @@ class SimData:
     soft_iron: Array  # (S, 3, 3) the soft-iron matrices I + E drawn
     flex_reading_deg: Array  # (N,) the angle the flex sensor reports, after its dynamics
     die_c: Array  # (N,) the IMU die's temperature, degC (die_temperature)
+
+
+def _rows(truth: Truth, rows: slice) -> Truth:
+    """Some of the truth's samples."""
+    return Truth(*(getattr(truth, f.name)[rows] for f in fields(Truth)))
 
 
 def _stencil_sum(weights: Array, x: Array) -> Array:
@@ -824,6 +837,25 @@ class SampleStream:
                                                sim.seed, i, sim.power_on) for i, kind in enumerate(_KINDS)}
         self._magnetic = _MagneticProcess(sim.errors.magnetic, n, sim.seed)
         self._flex = _FlexProcess(sim.errors.flex_dynamics, sim.flex_sensor.bent_deg, rate_hz, sim.seed)
+        dlpf = Dlpf.for_rate(rate_hz)
+        self._delays = ((FractionalDelay.of(dlpf.gyro_delay_s, rate_hz), FractionalDelay.of(dlpf.accel_delay_s, rate_hz))
+                        if sim.errors.dlpf else None)
+
+    def _sensed(self, k0: int, k1: int) -> tuple[Truth, Array, Array]:
+        """The truth of samples k0 to k1 - 1, and the rates and specific forces the IMU reads at them:
+        the truth's, or with :attr:`SensorErrors.dlpf` the truth's as its low-pass filters delay them,
+        interpolated from the samples before (the first sample's held before sample 0)."""
+        if self._delays is None:
+            truth = self.sim.truth(np.arange(k0, k1) / self.rate_hz)
+            return truth, truth.gyr, truth.acc
+        gyr_delay, acc_delay = self._delays
+        reach = max(gyr_delay.reach, acc_delay.reach)
+        k = np.maximum(np.arange(k0 - reach, k1), 0)
+        before = self.sim.truth(np.arange(k[0], k1) / self.rate_hz)
+        truth = _rows(before, slice(k0 - int(k[0]), None))
+        gyr, acc = before.gyr[k - k[0]], before.acc[k - k[0]]
+        return (truth, gyr_delay.apply(gyr[reach - gyr_delay.reach:]),
+                acc_delay.apply(acc[reach - acc_delay.reach:]))
 
     def _true_flex(self, k0: int, k1: int) -> Array:
         """The true elbow angles of samples k0 to k1 - 1, in degrees."""
@@ -846,12 +878,12 @@ class SampleStream:
         if not 0 <= k0 <= k1:
             raise ValueError(f"a block of samples needs 0 <= k0 <= k1, not {k0} and {k1}")
         k = np.arange(k0, k1)
-        truth = self.sim.truth(k / self.rate_hz)
+        truth, gyr, acc = self._sensed(k0, k1)
         p, circuit = self._processes, self.sim.flex_circuit
         flex = self._flex.reading(truth.flex_deg, k0, self._true_flex)
         volts = circuit.volts(self.sim.flex_sensor.ohms(flex))
         mag = self._magnetic
-        return SimData(truth.t, p["gyr"].measure(truth.gyr, k), p["acc"].measure(truth.acc, k),
+        return SimData(truth.t, p["gyr"].measure(gyr, k), p["acc"].measure(acc, k),
                        self._mag(k, mag.field(truth)), circuit.adc(p["flex"].measure(volts, k)),
                        truth, {kind: q.offset for kind, q in p.items()},
                        {kind: q.scale for kind, q in p.items()}, {kind: q.warmup for kind, q in p.items()},

@@ -19,6 +19,7 @@ from tracker import protocol as P
 from tracker.flex import FlexCircuit
 from tracker.fusion import make
 from tracker.fusion.complementary import ComplementaryState
+from tracker.mpu_dlpf import dlpf_for_rate
 from tracker.sim import Simulator, arm_chain, arm_swing, mpu9250
 
 from .firmware_lib import (Command, Filter, Fused, Grid, Hello, Mag, Parser, Rail, Raw, State,
@@ -636,6 +637,8 @@ def test_whoami_and_register_values(lib):
     assert [w for w in range(256) if lib.eb_imu_known(w)] == [0x70, 0x71, 0x73]
     assert [lib.eb_fs_register(c) for c in range(4)] == [0x00, 0x08, 0x10, 0x18]
     assert [lib.eb_dlpf_for_rate(r) for r in (1, 40, 80, 200, 368, 400, 736, 1000)] == [6, 5, 4, 3, 2, 2, 1, 0]
+    # The simulator's board reads through the filter the firmware sets (tracker.mpu_dlpf).
+    assert [lib.eb_dlpf_for_rate(r) for r in range(1, 1001)] == [dlpf_for_rate(r) for r in range(1, 1001)]
 
 
 @pytest.mark.parametrize("temp", [1335, -7011, -32768, 32767])

@@ -46,11 +46,15 @@ def test_link_faults_are_counted_as_injected_and_cause_no_false_launch():
     r = run_match(MatchConfig(seed=4, duration_s=SHORT, faults=Faults.parse("corrupt=0.01,drop=0.002")))
     injected = r["injected"]
     assert injected["bytes_corrupted"] > 100 and injected["bytes_dropped"] > 20
-    assert r["frames_decoded"] == r["frames_sent"] - injected["frames_damaged"]
-    assert r["dropped"] == injected["frames_damaged"]  # every damaged frame is a sequence gap
+    # Every whole frame is decoded. A damaged frame passes CRC-16 with a chance of 2^-16 (one or
+    # two flipped bits never do; a lost byte shifts the rest): 0.05 of the ~3,200 damaged here
+    # are expected through, and 3 or more come with a chance of 2e-5.
+    slipped = r["frames_decoded"] - (r["frames_sent"] - injected["frames_damaged"])
+    assert 0 <= slipped <= 2
+    assert r["dropped"] == injected["frames_damaged"] - slipped  # every damaged frame lost is a sequence gap
     # A damaged frame whose header arrived whole fails its CRC; one with a damaged header may be
     # skipped before the CRC (a broken sync or length) or fail it (an unknown type).
-    assert injected["damaged_header_intact"] <= r["crc_errors"] <= injected["frames_damaged"]
+    assert injected["damaged_header_intact"] - slipped <= r["crc_errors"] <= injected["frames_damaged"]
     assert r["false_launches"] == 0 and r["launch_recall"] >= 0.9
     assert r["survived_s"] > 0
 
