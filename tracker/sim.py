@@ -838,8 +838,8 @@ class SampleStream:
         self._magnetic = _MagneticProcess(sim.errors.magnetic, n, sim.seed)
         self._flex = _FlexProcess(sim.errors.flex_dynamics, sim.flex_sensor.bent_deg, rate_hz, sim.seed)
         dlpf = Dlpf.for_rate(rate_hz)
-        self._delays = ((FractionalDelay.of(dlpf.gyro_delay_s, rate_hz), FractionalDelay.of(dlpf.accel_delay_s, rate_hz))
-                        if sim.errors.dlpf else None)
+        self._delays = ((FractionalDelay.of(dlpf.gyro_delay_s, rate_hz),
+                         FractionalDelay.of(dlpf.accel_delay_s, rate_hz)) if sim.errors.dlpf else None)
 
     def _sensed(self, k0: int, k1: int) -> tuple[Truth, Array, Array]:
         """The truth of samples k0 to k1 - 1, and the rates and specific forces the IMU reads at them:
@@ -851,9 +851,9 @@ class SampleStream:
         gyr_delay, acc_delay = self._delays
         reach = max(gyr_delay.reach, acc_delay.reach)
         k = np.maximum(np.arange(k0 - reach, k1), 0)
-        before = self.sim.truth(np.arange(k[0], k1) / self.rate_hz)
-        truth = _rows(before, slice(k0 - int(k[0]), None))
-        gyr, acc = before.gyr[k - k[0]], before.acc[k - k[0]]
+        span = self.sim.truth(np.arange(k[0], k1) / self.rate_hz)  # the block and the samples it reads
+        truth = _rows(span, slice(k0 - int(k[0]), None))
+        gyr, acc = span.gyr[k - k[0]], span.acc[k - k[0]]
         return (truth, gyr_delay.apply(gyr[reach - gyr_delay.reach:]),
                 acc_delay.apply(acc[reach - acc_delay.reach:]))
 
