@@ -146,6 +146,8 @@ class AccelProcedure:
         self._linked = False  # _since runs unbroken from the last pose captured
         self._last_pose: tuple[Array, Array] | None = None  # its mean rate (the bias there) and specific force
         self._turns: list[Turn] = []
+        self._die: float | None = None  # the die's temperature at the latest sample (degC; None: not sent)
+        self._pose_die: dict[str, float | None] = {}  # ... when each pose was captured
         self._status = AccelStatus(FACES[0], None, 0.0, (), f"put {FACES[0]} up, flat on the table", False)
 
     @property
@@ -188,6 +190,7 @@ class AccelProcedure:
         t, acc, gyr = sample.t, sample.acc, sample.gyr
         if self._asked() is None:
             return self._status
+        self._die = sample.die_c
         gap = math.inf if self._last_t is None else t - self._last_t
         self._last_t = t
         up, tilt = pose_label(acc)
@@ -250,6 +253,7 @@ class AccelProcedure:
             if len(h.t) >= self.params.pose.min_samples else f"too few samples ({len(h.t)})"
         if moved is None:
             self._poses[face] = pose
+            self._pose_die[face] = self._die
             self._moved, self._left = "", False
             rate, acc = pose.gyr.mean(axis=0), pose.acc.mean(axis=0)
             if self._linked and self._last_pose is not None and len(self._since) >= 2:
@@ -317,7 +321,11 @@ class AccelProcedure:
                                 acc_misalignment=result.misalignment)
 
     def calibration(self, result: SixPoseResult, board_id: str = "default") -> tuple[BoardCalibration, SensitivityFit]:
-        """This procedure's fields: the accelerometer's from ``result``, the gyroscope's sensitivities
-        from the turns (kept at 1 where their fit was refused: the fit says why)."""
+        """This procedure's fields: the accelerometer's from ``result`` and the die's mean temperature
+        over its poses (0 when the board sent none: :class:`BoardCalibration`), the gyroscope's
+        sensitivities from the turns (kept at 1 where their fit was refused: the fit says why)."""
         gyro = self.gyro_fit(result)
-        return replace(self.calibration_of(result, board_id), gyro_scale=np.diag(gyro.scale)), gyro
+        temps = [self._pose_die.get(f) for f in FACES]
+        ref = float(np.mean(temps)) if all(c is not None for c in temps) else 0.0
+        return replace(self.calibration_of(result, board_id), gyro_scale=np.diag(gyro.scale),
+                       acc_offset_ref_c=np.array(ref)), gyro

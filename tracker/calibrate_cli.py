@@ -64,11 +64,12 @@ FACE_HINTS = {"+z": "chip side up", "-z": "chip side down", "+x": "the x arrow p
 # How `calibrate show` writes a procedure's figures (ProcedureRecord.figures), by name.
 FIGURES = {"residual_m_s2": "residual {:.4f} m/s^2", "residual_ut": "residual {:.2f} uT",
            "strength_ut": "field {:.1f} uT", "dip_deg": "dip {:.1f} deg", "rise_c": "warmed {:.2f} degC",
-           "slope_dps_per_c": "slope {:.3f} deg/s per degC", "residual_dps": "residual {:.3f} deg/s"}
+           "slope_dps_per_c": "slope {:.3f} deg/s per degC", "residual_dps": "residual {:.3f} deg/s",
+           "acc_slope_mg_per_c": "accelerometer {:.3f} mg per degC"}
 # The figures --json reports against the simulated board's truth (tracker.maker_sim.calibration_errors).
 TRUTH_ERRORS = {"accel": ("acc_offset_error_mg", "acc_scale_error_pct", "gyro_scale_error_pct"),
                 "mag": ("mag_hard_iron_error_ut", "mag_soft_iron_error_pct"),
-                "thermal": ("gyro_thermal_error_dps_per_c",)}
+                "thermal": ("gyro_thermal_error_dps_per_c", "acc_thermal_error_mg_per_c")}
 
 Status = TypeVar("Status", AccelStatus, MagStatus, ThermalStatus)
 Shown = TypeVar("Shown", covariant=True)
@@ -354,10 +355,11 @@ def finish_thermal(board_id: str, procedure: ThermalProcedure, status: ThermalSt
         raise CalibrationRefused(f"{result.problem}; nothing was saved")
     fitted, record = thermal_calibration(board_id, result)
     values = {"still_s": result.seconds, "gyro_thermal": result.slope.tolist(),
-              "gyro_thermal_ref_c": result.ref_c, **dict(record.figures)}
+              "gyro_thermal_ref_c": result.ref_c, "acc_thermal": result.acc_slope.tolist(), **dict(record.figures)}
     line = (f"gyroscope warm-up: bias slope ({_numbers(np.degrees(result.slope), '{:+.4f}')}) deg/s per degC about "
             f"{result.ref_c:.2f} degC; warmed {result.rise_c:.2f} degC, residual {result.residual_dps:.3f} deg/s")
-    return fitted, record, values, [line]
+    acc_line = f"accelerometer zero-g slope ({_numbers(result.acc_slope / C.MG, '{:+.3f}')}) mg per degC"
+    return fitted, record, values, [line, acc_line]
 
 
 # ----------------------------------------------------------------- the commands

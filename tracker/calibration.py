@@ -57,7 +57,7 @@ from numpy.typing import ArrayLike, NDArray
 from .atomic import atomic_write
 from .lowpass import LowPass2
 from . import quat
-from .protocol import Hello, RawSample, temp_c
+from .protocol import STANDARD_GRAVITY, Hello, RawSample, temp_c
 from .userjson import JSONInputError, read_json
 
 Array = NDArray[np.float64]
@@ -65,6 +65,7 @@ Vec = tuple[float, float, float]
 Rows = tuple[Vec, Vec, Vec]  # a 3 x 3 matrix by rows
 
 DEG = math.pi / 180.0  # rad per degree
+MG = STANDARD_GRAVITY / 1000.0  # m/s^2 per milli-g
 GRAVITY = 9.81  # m/s^2, the world gravity of ARCHITECTURE.md
 
 
@@ -869,12 +870,12 @@ _BOARD_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,79}")
 # The maker's procedures and the fields each fills (``armtracker calibrate accel|mag|thermal``, the game's
 # Board setup); saving one keeps the other's fields. In the order they are shown.
 PROCEDURES: dict[str, tuple[str, ...]] = {
-    "accel": ("acc_offset", "acc_scale", "acc_misalignment", "gyro_scale"),
+    "accel": ("acc_offset", "acc_scale", "acc_misalignment", "gyro_scale", "acc_offset_ref_c"),
     "mag": ("mag_hard_iron", "mag_soft_iron"),
-    "thermal": ("gyro_thermal", "gyro_thermal_ref_c"),
+    "thermal": ("gyro_thermal", "gyro_thermal_ref_c", "acc_thermal"),
 }
 PROCEDURE_TITLES: dict[str, str] = {"accel": "accelerometer", "mag": "magnetometer", "thermal": "gyroscope warm-up"}
-_ADDED_LATER = ("gyro_thermal", "gyro_thermal_ref_c", "gyro_scale")  # fields older files lack: defaults
+_ADDED_LATER = ("gyro_thermal", "gyro_thermal_ref_c", "gyro_scale", "acc_thermal", "acc_offset_ref_c")  # fields older files lack: defaults
 _FIGURE_NAME = re.compile(r"[a-z][a-z0-9_]{0,39}")
 MAX_DAMAGED_COPIES = 20  # <name>.damaged, <name>.damaged.2, ... (then a save is refused)
 
@@ -971,6 +972,8 @@ class _PlainCalibration:
     gyro_thermal: Vec | None  # None when there is no thermal calibration
     gyro_thermal_ref_c: float
     gyro_scale: Rows | None
+    acc_thermal: Vec | None  # None unless both the slope and the offsets' temperature are known
+    acc_offset_ref_c: float
 
     @classmethod
     def of(cls, cal: BoardCalibration) -> _PlainCalibration:
@@ -978,7 +981,8 @@ class _PlainCalibration:
         return cls(_floats(cal.gyro_bias), _floats(cal.acc_offset), _floats(cal.acc_scale),
                    _matrix(cal.acc_misalignment), _floats(cal.mag_hard_iron),
                    _matrix(cal.mag_soft_iron), _floats(cal.gyro_thermal) if cal.gyro_thermal.any() else None,
-                   float(cal.gyro_thermal_ref_c), _matrix(cal.gyro_scale))
+                   float(cal.gyro_thermal_ref_c), _matrix(cal.gyro_scale),
+                   _floats(cal.acc_thermal) if cal.acc_thermal_known else None, float(cal.acc_offset_ref_c))
 
 
 def _floats(v: Array) -> Vec:
@@ -1012,7 +1016,10 @@ class BoardCalibration:
                   calibration, :mod:`tracker.thermal`; T the die's temperature, the term left out
                   for a sample without one; gyro_scale the sensitivities the six-pose procedure's
                   turns measure, :mod:`tracker.gyro_scale`)
-        acc_cal = acc_misalignment @ (acc_scale * (acc - acc_offset))   (Tedaldi 2014)
+        acc_cal = acc_misalignment @ (acc_scale * (acc - acc_offset - acc_thermal (T - acc_offset_ref_c)))
+                  (Tedaldi 2014, with the zero-g level's linear temperature model: the thermal
+                  calibration's slope about the temperature the six-pose procedure measured the
+                  offsets at; left out unless both are known and the sample has a temperature)
         mag_cal = mag_soft_iron @ (mag - mag_hard_iron)          (hard/soft iron)
     in rad/s, m/s^2 and uT. ``board_id`` names the board's file (see :func:`board_id_of`).
     ``procedures``: when each of the maker's procedures filled its fields
@@ -1031,6 +1038,9 @@ class BoardCalibration:
     gyro_thermal: Array = field(default_factory=lambda: np.zeros(3))  # rad/s per degC of the die
     gyro_thermal_ref_c: Array = field(default_factory=lambda: np.zeros(()))  # degC where it is zero
     gyro_scale: Array = field(default_factory=lambda: np.eye(3))  # true rate per reading (its diagonal fitted)
+    acc_thermal: Array = field(default_factory=lambda: np.zeros(3))  # m/s^2 per degC: the zero-g level's slope
+    acc_offset_ref_c: Array = field(default_factory=lambda: np.zeros(()))  # degC the offsets were measured
+    # at (the six-pose procedure's poses); 0: not measured (a firmware without the TEMP frame)
     procedures: tuple[ProcedureRecord, ...] = ()
     _plain: _PlainCalibration = field(init=False, repr=False)  # the arrays as floats, for apply
 
@@ -1058,6 +1068,12 @@ class BoardCalibration:
         object.__setattr__(self, "procedures", in_order)
         object.__setattr__(self, "_plain", _PlainCalibration.of(self))
 
+    @property
+    def acc_thermal_known(self) -> bool:
+        """Whether the accelerometer's offsets can follow the die's temperature: a thermal calibration
+        measured their slope and the six-pose procedure the temperature they were measured at."""
+        return bool(self.acc_thermal.any()) and float(self.acc_offset_ref_c) != 0.0
+
     def record(self, name: str) -> ProcedureRecord | None:
         """When procedure ``name`` filled this board's fields; None if it never did."""
         return next((r for r in self.procedures if r.name == name), None)
@@ -1073,7 +1089,10 @@ class BoardCalibration:
                      mag: ArrayLike | None = None, die_c: ArrayLike | None = None) -> Corrected:
         """Correct readings of shape (..., 3) (one sample or many; ``die_c`` (...) in degC, or None
         when the board sent no temperature); see the class doc."""
-        a = (np.asarray(acc, dtype=np.float64) - self.acc_offset) * self.acc_scale
+        a = np.asarray(acc, dtype=np.float64) - self.acc_offset
+        if die_c is not None and self.acc_thermal_known:
+            a = a - (np.asarray(die_c, dtype=np.float64)[..., None] - self.acc_offset_ref_c) * self.acc_thermal
+        a = a * self.acc_scale
         m = None if mag is None else \
             (np.asarray(mag, dtype=np.float64) - self.mag_hard_iron) @ self.mag_soft_iron.T
         g = np.asarray(gyr, dtype=np.float64) - self.gyro_bias
@@ -1086,9 +1105,14 @@ class BoardCalibration:
         c = self._plain
         (ax, ay, az), (gx, gy, gz), mag = sample.acc, sample.gyr, sample.mag
         (ox, oy, oz), (sx, sy, sz), (bx, by, bz) = c.acc_offset, c.acc_scale, c.gyro_bias
-        if c.gyro_thermal is not None and sample.temp_counts is not None:
-            dt = temp_c(sample.temp_counts) - c.gyro_thermal_ref_c
-            bx, by, bz = bx + c.gyro_thermal[0] * dt, by + c.gyro_thermal[1] * dt, bz + c.gyro_thermal[2] * dt
+        if sample.temp_counts is not None:
+            die = temp_c(sample.temp_counts)
+            if c.gyro_thermal is not None:
+                dt = die - c.gyro_thermal_ref_c
+                bx, by, bz = bx + c.gyro_thermal[0] * dt, by + c.gyro_thermal[1] * dt, bz + c.gyro_thermal[2] * dt
+            if c.acc_thermal is not None:
+                dt = die - c.acc_offset_ref_c
+                ox, oy, oz = ox + c.acc_thermal[0] * dt, oy + c.acc_thermal[1] * dt, oz + c.acc_thermal[2] * dt
         acc = _transform(c.acc_misalignment, (ax - ox) * sx, (ay - oy) * sy, (az - oz) * sz)
         if mag is not None:
             (mx, my, mz), (hx, hy, hz) = mag, c.mag_hard_iron

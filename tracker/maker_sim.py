@@ -57,7 +57,7 @@ from numpy.typing import NDArray
 from . import quat as Q
 from .accel_procedure import AccelProcedure, AccelStatus
 from .board import BoardSettings, acc_lsb, counts, gyr_lsb
-from .calibration import BoardCalibration, SixPoseResult
+from .calibration import MG, PROCEDURES, BoardCalibration, SixPoseResult
 from .mag_procedure import MagProcedure, MagResult, MagStatus
 from .magfit import MagFitError
 from .motion import SensorReading
@@ -65,7 +65,7 @@ from .protocol import MAG_UT_PER_COUNT, STANDARD_GRAVITY, RawSample, temp_counts
 from .sim import (Chain, LinkSpec, Motion, SampleStream, SensorErrors, SensorSpec, Simulator,
                   die_rise_c, realistic_errors)
 from .sim_board import ACC_FS_G, GYR_FS_DPS
-from .thermal import ThermalParams, ThermalProcedure, ThermalResult, ThermalStatus
+from .thermal import ThermalParams, ThermalProcedure, ThermalResult, ThermalStatus, thermal_calibration
 
 Array = NDArray[np.float64]
 Vec3 = tuple[float, float, float]
@@ -376,9 +376,9 @@ class SimulatedMaker:
         proportional to (M M^T)^-1, normalised to det W = 1 as the fit is
         (:mod:`tracker.magfit`: only W up to a scale and a rotation is observable):
         W = |det M|^(1/3) (M M^T)^(-1/2). gyro_bias: the offset at power-on; gyro_scale: the
-        inverse of the gyroscope's drawn sensitivities. gyro_thermal: this
-        power-on's warm-up over the die's rise (:func:`tracker.sim.die_temperature`), about the
-        temperature at power-on.
+        inverse of the gyroscope's drawn sensitivities. gyro_thermal and acc_thermal: this
+        power-on's warm-ups over the die's rise (:func:`tracker.sim.die_temperature`), about the
+        temperature at power-on (acc_offset, gyro_bias: the offsets there).
         """
         data = self._simulator.stream(self.rate_hz).block(0, 1)
         d, o_m = data.scale["mag"][0], data.offset["mag"][0]
@@ -386,12 +386,15 @@ class SimulatedMaker:
         values, vectors = np.linalg.eigh(m @ m.T)
         w = abs(np.linalg.det(m)) ** (1.0 / 3.0) * (vectors / np.sqrt(values)) @ vectors.T
         gyr = self.errors.gyr
-        slope = data.warmup["gyr"][0] / die_rise_c(gyr) if gyr.warmup else np.zeros(3)
+        rise = die_rise_c(gyr)
+        slope, acc_slope = ((data.warmup["gyr"][0] / rise, data.warmup["acc"][0] / rise) if gyr.warmup
+                            else (np.zeros(3), np.zeros(3)))
         return BoardCalibration(gyro_bias=data.offset["gyr"][0], acc_offset=data.offset["acc"][0],
                                 acc_scale=1.0 / data.scale["acc"][0],
                                 mag_hard_iron=d * data.hard_iron[0] + o_m, mag_soft_iron=0.5 * (w + w.T),
                                 gyro_thermal=slope, gyro_thermal_ref_c=np.array(data.die_c[0]),
-                                gyro_scale=np.diag(1.0 / data.scale["gyr"][0]))
+                                gyro_scale=np.diag(1.0 / data.scale["gyr"][0]), acc_thermal=acc_slope,
+                                acc_offset_ref_c=np.array(data.die_c[0]))
 
 
 def calibration_errors(fitted: BoardCalibration, truth: BoardCalibration) -> dict[str, float]:
@@ -402,14 +405,20 @@ def calibration_errors(fitted: BoardCalibration, truth: BoardCalibration) -> dic
     ``mag_hard_iron_error_ut``: the length of the hard iron's error; ``mag_soft_iron_error_pct``:
     the largest element of the soft iron's error (the matrices are near the identity), in %;
     ``gyro_thermal_error_dps_per_c``: the length of the warm-up slope's error, deg/s per degC;
+    ``acc_thermal_error_mg_per_c``: the length of the zero-g level's slope's error, mg per degC. The
+    offsets are compared at the temperature the fitted ones were measured at (the truth's moved
+    there along its slope) when the fitted calibration knows it;
     ``gyro_scale_error_pct``: the worst axis's fitted sensitivity over the true, less one, in %.
     """
+    true_offset = truth.acc_offset + (truth.acc_thermal * (fitted.acc_offset_ref_c - truth.acc_offset_ref_c)
+                                      if fitted.acc_offset_ref_c else 0.0)
     return {
-        "acc_offset_error_mg": float(np.max(np.abs(fitted.acc_offset - truth.acc_offset))) / STANDARD_GRAVITY * 1e3,
+        "acc_offset_error_mg": float(np.max(np.abs(fitted.acc_offset - true_offset))) / MG,
         "acc_scale_error_pct": float(np.max(np.abs(fitted.acc_scale / truth.acc_scale - 1.0))) * 100.0,
         "mag_hard_iron_error_ut": float(np.linalg.norm(fitted.mag_hard_iron - truth.mag_hard_iron)),
         "mag_soft_iron_error_pct": float(np.max(np.abs(fitted.mag_soft_iron - truth.mag_soft_iron))) * 100.0,
         "gyro_thermal_error_dps_per_c": math.degrees(float(np.linalg.norm(fitted.gyro_thermal - truth.gyro_thermal))),
+        "acc_thermal_error_mg_per_c": float(np.linalg.norm(fitted.acc_thermal - truth.acc_thermal)) / MG,
         "gyro_scale_error_pct": float(np.max(np.abs(np.diag(fitted.gyro_scale) / np.diag(truth.gyro_scale) - 1.0))) * 100.0,
     }
 
@@ -511,7 +520,8 @@ def calibrate(maker: SimulatedMaker, thermal: bool = True) -> tuple[BoardCalibra
     if thermal:
         warm = warm_up(maker)
         if isinstance(warm.result, ThermalResult) and not warm.error:
-            cal = replace(cal, gyro_thermal=warm.result.slope, gyro_thermal_ref_c=np.array(warm.result.ref_c))
+            fitted, _ = thermal_calibration(cal.board_id, warm.result)
+            cal = replace(cal, **{name: getattr(fitted, name) for name in PROCEDURES["thermal"]})
         elif not (isinstance(warm.result, ThermalResult) and not warm.result.warmed):  # (a board that
             # barely warms has nothing to predict: no failure)
             problems.append(f"warm-up calibration failed: {warm.error}")

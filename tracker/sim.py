@@ -102,6 +102,9 @@ WARMUP_SPAN_S = 600.0  # ErrorModel.warmup is the offset's change over this long
 # steepest slope the data sheet allows, so the least temperature signal for a given drift.
 ZRO_TEMPCO_DPS_PER_C = 60.0 / 125.0 / 2.0
 ROOM_C = 22.0  # the die's temperature at power-on: a room's
+# The accelerometer's zero-g level moves by up to +-1.5 mg per degC of the die (PS-MPU-9250A-01, table 2,
+# "zero-g level change vs. temperature", x and y): the bound, taken along the warm-up's drawn direction.
+ACC_ZERO_G_TEMPCO = 1.5e-3 * STANDARD_GRAVITY  # m/s^2 per degC
 TYPICAL_WARMUP_UNEXPLAINED = 0.2  # share of the warm-up a thermal calibration cannot predict (ErrorModel)
 
 # The "typical" board and player's sensors (realistic_errors; game.sim.motion_model.PlayerProfile's defaults).
@@ -403,6 +406,10 @@ def realistic_errors(gyro_bias_dps: float = TYPICAL_GYRO_BIAS_DPS, noise_scale: 
     (:class:`FlexDynamics`) and :data:`TYPICAL_FLEX_NOISE_COUNTS` of noise on
     the flex circuit. Its gyroscope and accelerometer read through the MPU-9250's
     low-pass filters (:mod:`tracker.mpu_dlpf`: 5.9 ms and 4.88 ms late at 200 Hz).
+    The accelerometer's zero-g level warms with the die (:func:`die_rise_c`) by
+    :data:`ACC_ZERO_G_TEMPCO` per degC, on the gyroscope's warm-up curve, with the
+    same share of it drawn anew at every power-on (thermal hysteresis, as the
+    gyroscope's: :class:`ErrorModel`).
     The defaults, the TYPICAL_* constants, are a typical
     board within the cited ranges: gyroscope offsets within +-1 deg/s (the
     data sheet allows +-5), 4 degC of warming (1 deg/s, 27 % of it unpredictable
@@ -420,7 +427,8 @@ def realistic_errors(gyro_bias_dps: float = TYPICAL_GYRO_BIAS_DPS, noise_scale: 
                   warmup_unexplained=TYPICAL_WARMUP_UNEXPLAINED)
     return SensorErrors(
         gyr=gyr,
-        acc=replace(base.acc, noise_density=base.acc.noise_density * noise_scale),
+        acc=replace(base.acc, noise_density=base.acc.noise_density * noise_scale,
+                    warmup=ACC_ZERO_G_TEMPCO * die_rise_c(gyr), warmup_unexplained=TYPICAL_WARMUP_UNEXPLAINED),
         mag=replace(base.mag, noise_density=base.mag.noise_density * noise_scale),
         flex=ErrorModel(noise_density=TYPICAL_FLEX_NOISE_COUNTS * circuit.lsb_v / math.sqrt(200.0)),
         magnetic=MagneticErrors(hard_iron_ut=mag_hard_iron_ut, soft_iron=mag_soft_iron_pct / 100.0,

@@ -46,7 +46,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from .calibration import DEG, BoardCalibration, ProcedureRecord, RestParams, window_motion
+from .calibration import DEG, MG, BoardCalibration, ProcedureRecord, RestParams, window_motion
 from .protocol import RawSample
 
 Array = NDArray[np.float64]
@@ -64,11 +64,12 @@ class ThermalParams:
 
 @dataclass(frozen=True)
 class ThermalResult:
-    """The fit: ``slope`` (rad/s per degC, per axis) about ``ref_c``; ``rise_c`` the warming seen,
-    ``residual_dps`` the RMS of the still seconds about their lines; ``problem`` why it was refused
-    ("" when it was not)."""
+    """The fit: ``slope`` (rad/s per degC, per axis) about ``ref_c``; ``acc_slope`` the accelerometer's
+    zero-g level's (m/s^2 per degC); ``rise_c`` the warming seen, ``residual_dps`` the RMS of the
+    still seconds about the gyroscope's lines; ``problem`` why it was refused ("" when it was not)."""
 
     slope: Array = field(default_factory=lambda: np.zeros(3))
+    acc_slope: Array = field(default_factory=lambda: np.zeros(3))
     ref_c: float = 0.0
     rise_c: float = 0.0
     residual_dps: float = 0.0
@@ -105,9 +106,12 @@ class ThermalStatus:
         return head + (f"; this second was left out: {self.moved}" if self.moved else "")
 
 
-def fit_thermal(die_c: Array, gyr: Array, params: ThermalParams = ThermalParams()) -> ThermalResult:
+def fit_thermal(die_c: Array, gyr: Array, acc: Array | None = None,
+                params: ThermalParams = ThermalParams()) -> ThermalResult:
     """Each axis's bias as a line in the temperature (module docstring), from still seconds' means:
-    ``die_c`` (N,) degC and ``gyr`` (N, 3) rad/s. Refused below the params' minimums."""
+    ``die_c`` (N,) degC, ``gyr`` (N, 3) rad/s and ``acc`` (N, 3) m/s^2 (the accelerometer's lines: the
+    board lies still, so its reading moves only as its zero-g level does; None: not fitted).
+    Refused below the params' minimums."""
     n = len(die_c)
     if n < params.min_still_s:
         return ThermalResult(seconds=n, problem=f"only {n} s of the board lying still (the fit needs "
@@ -119,17 +123,20 @@ def fit_thermal(die_c: Array, gyr: Array, params: ThermalParams = ThermalParams(
             "unplug it for ten minutes so that it starts cold, then run this again"))
     ref = float(np.mean(die_c))
     x = np.column_stack([np.ones(n), die_c - ref])
-    coef, *_ = np.linalg.lstsq(x, gyr, rcond=None)
-    residual = gyr - x @ coef
-    return ThermalResult(coef[1], ref, rise, float(np.sqrt(np.mean(residual**2))) / DEG, n)
+    readings = np.column_stack([gyr, np.zeros((n, 3)) if acc is None else acc])
+    coef, *_ = np.linalg.lstsq(x, readings, rcond=None)
+    residual = gyr - x @ coef[:, :3]
+    return ThermalResult(coef[1, :3], coef[1, 3:], ref, rise, float(np.sqrt(np.mean(residual**2))) / DEG, n)
 
 
 def thermal_calibration(board_id: str, result: ThermalResult) -> tuple[BoardCalibration, ProcedureRecord]:
     """A fit's fields of the board's calibration (the slope about its reference; b0 is the day's), and the
     procedure's record (now) with its figures: the warming seen, the slope's length, the residual."""
-    fitted = BoardCalibration(board_id, gyro_thermal=result.slope, gyro_thermal_ref_c=np.array(result.ref_c))
+    fitted = BoardCalibration(board_id, gyro_thermal=result.slope, gyro_thermal_ref_c=np.array(result.ref_c),
+                              acc_thermal=result.acc_slope)
     figures = {"rise_c": result.rise_c, "slope_dps_per_c": float(np.linalg.norm(result.slope)) / DEG,
-               "residual_dps": result.residual_dps}
+               "residual_dps": result.residual_dps,
+               "acc_slope_mg_per_c": float(np.linalg.norm(result.acc_slope)) / MG}
     return fitted, ProcedureRecord.now("thermal", figures)
 
 
@@ -141,7 +148,7 @@ class ThermalProcedure:
         self._t0: float | None = None  # board time of the first sample
         self._second: list[tuple[float, tuple[float, float, float], tuple[float, float, float]]] = []
         self._index = -1  # the second being gathered
-        self._means: list[tuple[float, Array]] = []  # still seconds: (die degC, gyro rad/s)
+        self._means: list[tuple[float, Array, Array]] = []  # still seconds: (die degC, gyro rad/s, acc m/s^2)
         self._first_c: float | None = None
         self._status = ThermalStatus()
 
@@ -184,10 +191,10 @@ class ThermalProcedure:
         rows, self._second = self._second, []
         if len(rows) < 2:
             return ""
-        gyr = np.array([r[1] for r in rows])
-        why = window_motion(gyr, np.array([r[2] for r in rows]), self.params.still)
+        gyr, acc = np.array([r[1] for r in rows]), np.array([r[2] for r in rows])
+        why = window_motion(gyr, acc, self.params.still)
         if why is None:
-            self._means.append((float(np.mean([r[0] for r in rows])), gyr.mean(axis=0)))
+            self._means.append((float(np.mean([r[0] for r in rows])), gyr.mean(axis=0), acc.mean(axis=0)))
         return why or ""
 
     def result(self) -> ThermalResult:
@@ -197,4 +204,5 @@ class ThermalProcedure:
         self._close_second()
         die = np.array([m[0] for m in self._means])
         gyr = np.array([m[1] for m in self._means]).reshape(-1, 3)
-        return fit_thermal(die, gyr, self.params)
+        acc = np.array([m[2] for m in self._means]).reshape(-1, 3)
+        return fit_thermal(die, gyr, acc, self.params)

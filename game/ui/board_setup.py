@@ -37,7 +37,7 @@ import numpy as np
 from tracker import protocol as P
 from tracker.accel_procedure import AccelProcedure, AccelStatus
 from tracker.board import BoardSettings, hello as board_hello
-from tracker.calibration import (BoardCalibration, CalibrationFileError, ProcedureRecord, SixPoseResult,
+from tracker.calibration import (MG, BoardCalibration, CalibrationFileError, ProcedureRecord, SixPoseResult,
                                  damage, load, save_procedure)
 from tracker.magfit import MagFitError
 from tracker.mag_procedure import MagProcedure, MagResult, MagStatus, bin_directions
@@ -270,7 +270,8 @@ class BoardSetup:
             return self._fail(WARM_WAIT, result.problem)
         self.figures = ["bias slope " + ", ".join(f"{v:+.4f}" for v in np.degrees(result.slope)) + " deg/s per degC",
                         f"warmed {result.rise_c:.2f} degC over {result.seconds} still seconds",
-                        f"residual {result.residual_dps:.3f} deg/s"]
+                        f"residual {result.residual_dps:.3f} deg/s",
+                        "accelerometer " + ", ".join(f"{v:+.3f}" for v in result.acc_slope / MG) + " mg per degC"]
         self._save(WARM_DONE, *thermal_calibration(self.board_id, result))
 
     def _fail(self, phase: str, problem: str) -> None:

@@ -552,6 +552,31 @@ def test_apply_works_on_one_sample_and_on_arrays_alike(cal):
     assert cal.apply(no_mag).mag is None
 
 
+def test_the_accelerometers_offsets_follow_the_die_where_their_slope_and_temperature_are_known():
+    # Worked by hand: a zero-g slope of (1.5, -1, 0.5) mg per degC, the offsets measured at 25 degC;
+    # at 35 degC the readings sit (15, -10, 5) mg further off, which the calibration takes off too.
+    slope = np.array([1.5, -1.0, 0.5]) * C.MG
+    cal = C.BoardCalibration(acc_offset=OFFSET, acc_thermal=slope, acc_offset_ref_c=25.0)
+    assert cal.acc_thermal_known
+    assert cal.apply_arrays(UP + OFFSET + 10.0 * slope, np.zeros(3), None, 35.0).acc == pytest.approx(UP)
+    assert cal.apply_arrays(UP + OFFSET, np.zeros(3), None, 25.0).acc == pytest.approx(UP)
+    warm = P.RawSample(0.0, 0, 0, (100, -200, 2048), (10, -5, 3), None, 400, temp_counts=P.temp_counts(35.0))
+    assert cal.apply(warm).acc == pytest.approx(tuple(cal.apply_arrays(warm.acc, warm.gyr, None, warm.die_c).acc),
+                                                abs=1e-12)
+    assert cal.apply(warm).acc != pytest.approx(tuple(cal.apply_arrays(warm.acc, warm.gyr).acc), abs=1e-3)
+    # Without the offsets' temperature (a six-pose run on a firmware without TEMP frames), or without
+    # the sample's, the slope is left out.
+    unknown = dataclasses.replace(cal, acc_offset_ref_c=0.0)
+    assert not unknown.acc_thermal_known
+    assert unknown.apply(warm).acc == pytest.approx(tuple(unknown.apply_arrays(warm.acc, warm.gyr).acc), abs=1e-12)
+    assert cal.apply(warm._replace(temp_counts=None)).acc == pytest.approx(
+        tuple(cal.apply_arrays(warm.acc, warm.gyr).acc), abs=1e-12)
+    again = C.BoardCalibration.from_json(cal.to_json())
+    assert again.acc_thermal == pytest.approx(slope) and float(again.acc_offset_ref_c) == 25.0
+    older = {k: v for k, v in cal.to_json().items() if k not in ("acc_thermal", "acc_offset_ref_c")}
+    assert not C.BoardCalibration.from_json(older).acc_thermal_known  # a file from before: nothing to apply
+
+
 def test_apply_follows_a_replaced_or_reloaded_calibration():
     sample = P.RawSample(0.0, 0, 0, (100, -200, 2048), (10, -5, 3), (100, 200, -300), 400)
     cal = calibrated()

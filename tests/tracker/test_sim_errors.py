@@ -316,6 +316,9 @@ def test_realistic_errors_take_the_profile_units_and_the_typical_board_is_the_de
     base = mpu9250()
     assert e.gyr.offset_max == pytest.approx(math.radians(2.0))
     assert e.gyr.warmup == pytest.approx(math.radians(1.5))
+    # The die warms by 1.5 / 0.24 = 6.25 degC, so the zero-g level by 1.5 mg x 6.25 = 9.375 mg.
+    assert e.acc.warmup == pytest.approx(9.375e-3 * 9.80665)
+    assert e.acc.warmup_unexplained == e.gyr.warmup_unexplained
     for kind in ("gyr", "acc", "mag"):
         assert getattr(e, kind).noise_density == pytest.approx(3.0 * getattr(base, kind).noise_density)
         assert getattr(e, kind).resolution == getattr(base, kind).resolution

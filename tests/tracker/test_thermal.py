@@ -12,7 +12,7 @@ from game.body.tracking import Tracking
 from game.replay import samples as S
 from tracker import protocol as P
 from tracker.calibrate_cli import finish_thermal, show_board
-from tracker.calibration import BoardCalibration
+from tracker.calibration import MG, BoardCalibration
 from tracker.maker_sim import THERMAL_POWER_ON, SimulatedMaker, calibration_errors, run_maker, warm_up
 from tracker.sim import (ROOM_C, ErrorModel, LinkSpec, Motion, SensorSpec, Chain, Simulator, die_rise_c,
                          realistic_errors)
@@ -101,10 +101,14 @@ def test_the_fit_recovers_a_line_worked_by_hand_and_refuses_what_it_cannot_fit()
     die = np.linspace(22.0, 30.0, 200)
     slope = np.array([0.1, -0.05, 0.2]) * DEG  # per degC
     gyr = np.array([1.0, 2.0, -3.0]) * DEG + np.outer(die - 22.0, slope)
-    fit = fit_thermal(die, gyr)
+    acc_slope = np.array([1.5, -0.5, 0.8]) * MG  # the zero-g level's, per degC
+    acc = np.array([0.1, -0.2, 9.8]) + np.outer(die - 22.0, acc_slope)
+    fit = fit_thermal(die, gyr, acc)
     assert fit.ok and fit.ref_c == pytest.approx(26.0) and fit.rise_c == pytest.approx(8.0)
     np.testing.assert_allclose(fit.slope, slope, atol=1e-12)
+    np.testing.assert_allclose(fit.acc_slope, acc_slope, atol=1e-12)
     assert fit.residual_dps == pytest.approx(0.0, abs=1e-9)
+    assert not fit_thermal(die, gyr).acc_slope.any()  # no accelerometer given, none fitted
     short = fit_thermal(die[:100], gyr[:100])
     assert not short.ok and "only 100 s" in short.problem and short.warmed
     flat = fit_thermal(np.full(200, 25.0) + np.linspace(0, 0.5, 200), gyr)
@@ -120,6 +124,7 @@ def test_the_procedure_finds_the_boards_slope_from_cold_and_leaves_out_a_bump():
     assert any("gyroscope strayed" in m for m in seen)  # the bumped seconds were left out, and said so
     truth = board.true_calibration()  # this power-on's warm-up over the die's rise
     assert np.linalg.norm(run.result.slope - truth.gyro_thermal) / DEG < 0.002  # of 0.2 deg/s per degC
+    assert np.linalg.norm(run.result.acc_slope - truth.acc_thermal) / MG < 0.02  # of 1.5 mg per degC
     assert run.result.rise_c == pytest.approx(3.0 / 0.24, rel=0.01)  # the whole warm-up: 12.5 degC
     assert 597 <= run.result.seconds <= 599  # the bumped second or two of 600 left out
 
@@ -138,8 +143,9 @@ def test_a_finished_warm_up_is_saved_with_its_figures_and_shown():
     fitted, record, values, lines = finish_thermal("imu-71", proc, proc.status, 600.0)
     assert record.name == "thermal" and dict(record.figures)["rise_c"] == pytest.approx(values["rise_c"])
     assert values["still_s"] >= 598 and "bias slope (" in lines[0]
-    error = calibration_errors(fitted, board.true_calibration())["gyro_thermal_error_dps_per_c"]
-    assert error < 0.002
+    errors = calibration_errors(fitted, board.true_calibration())
+    assert errors["gyro_thermal_error_dps_per_c"] < 0.002 and errors["acc_thermal_error_mg_per_c"] < 0.02
+    assert "accelerometer zero-g slope (" in lines[1] and values["acc_thermal"] == pytest.approx(fitted.acc_thermal)
     shown = show_board(BoardCalibration("imu-71", procedures=(record,)).with_procedure(fitted, record))
     assert any(line.strip().startswith("gyroscope warm-up") for line in shown)
     assert any("deg/s per degC about" in line for line in shown)
@@ -154,15 +160,23 @@ def test_the_calibration_leaves_only_the_power_ons_own_share_of_the_warm_up():
     errors = realistic_errors(gyro_warmup_dps=4.0, gyro_bias_dps=10.0)
     run = warm_up(SimulatedMaker(errors, 11))
     assert run.error == ""
-    cal = BoardCalibration(gyro_thermal=run.result.slope, gyro_thermal_ref_c=run.result.ref_c)
-    quiet = replace(errors, gyr=replace(errors.gyr, noise_density=0.0, resolution=0.0))  # the same board, no noise
+    quiet = replace(errors, gyr=replace(errors.gyr, noise_density=0.0, resolution=0.0),
+                    acc=replace(errors.acc, noise_density=0.0, resolution=0.0))  # the same board, no noise
     play = _still_board(quiet, 11, 1).simulate(600.0, 10.0)
-    corrected = cal.apply_arrays(play.acc[:, 0], play.gyr[:, 0], None, play.die_c).gyr
-    left, raw = corrected[-1] - corrected[0], play.gyr[-1, 0] - play.gyr[0, 0]
-    calibration_run = _still_board(errors, 11, THERMAL_POWER_ON).stream(10.0).block(0, 1).warmup["gyr"][0]
-    expected = play.warmup["gyr"][0] - calibration_run  # = 0.2 W (u_play - u_cal) after the whole warm-up
-    expected = expected * (play.die_c[-1] - play.die_c[0]) / die_rise_c(errors.gyr)
+    # The accelerometer's offsets as if the six-pose procedure had measured them at power-on.
+    cal = BoardCalibration(gyro_thermal=run.result.slope, gyro_thermal_ref_c=run.result.ref_c,
+                           acc_thermal=run.result.acc_slope, acc_offset_ref_c=play.die_c[0])
+    corrected = cal.apply_arrays(play.acc[:, 0], play.gyr[:, 0], None, play.die_c)
+    left, raw = corrected.gyr[-1] - corrected.gyr[0], play.gyr[-1, 0] - play.gyr[0, 0]
+    calibration_run = _still_board(errors, 11, THERMAL_POWER_ON).stream(10.0).block(0, 1).warmup
+    share = (play.die_c[-1] - play.die_c[0]) / die_rise_c(errors.gyr)
+    expected = (play.warmup["gyr"][0] - calibration_run["gyr"][0]) * share  # = 0.2 W (u_play - u_cal)
     np.testing.assert_allclose(left, expected, atol=0.05 * DEG)  # the fit's own error: 0.002 deg/s/degC x 16.7
+    # The zero-g level alike: of its 25 mg of warming, the power-on's own share is left.
+    acc_left = corrected.acc[-1] - corrected.acc[0]
+    acc_expected = (play.warmup["acc"][0] - calibration_run["acc"][0]) * share
+    assert np.linalg.norm(play.acc[-1, 0] - play.acc[0, 0]) / MG > 20.0  # what it would be without
+    np.testing.assert_allclose(acc_left, acc_expected, atol=0.5 * MG)  # the fit's error: 0.02 mg/degC x 16.7
     assert np.linalg.norm(left) <= 2 * 0.2 * 4.0 * DEG + 0.05 * DEG < np.linalg.norm(raw)  # at most 2 r of it
 
 
