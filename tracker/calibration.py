@@ -875,7 +875,8 @@ PROCEDURES: dict[str, tuple[str, ...]] = {
     "thermal": ("gyro_thermal", "gyro_thermal_ref_c", "acc_thermal"),
 }
 PROCEDURE_TITLES: dict[str, str] = {"accel": "accelerometer", "mag": "magnetometer", "thermal": "gyroscope warm-up"}
-_ADDED_LATER = ("gyro_thermal", "gyro_thermal_ref_c", "gyro_scale", "acc_thermal", "acc_offset_ref_c")  # fields older files lack: defaults
+# Fields older files lack: they take their defaults.
+_ADDED_LATER = ("gyro_thermal", "gyro_thermal_ref_c", "gyro_scale", "acc_thermal", "acc_offset_ref_c")
 _FIGURE_NAME = re.compile(r"[a-z][a-z0-9_]{0,39}")
 MAX_DAMAGED_COPIES = 20  # <name>.damaged, <name>.damaged.2, ... (then a save is refused)
 
