@@ -1070,10 +1070,15 @@ class BoardCalibration:
         object.__setattr__(self, "_plain", _PlainCalibration.of(self))
 
     @property
+    def acc_offset_temperature_known(self) -> bool:
+        """Whether the six-pose procedure knew the die's temperature (``acc_offset_ref_c`` 0: it did not)."""
+        return float(self.acc_offset_ref_c) != 0.0
+
+    @property
     def acc_thermal_known(self) -> bool:
         """Whether the accelerometer's offsets can follow the die's temperature: a thermal calibration
         measured their slope and the six-pose procedure the temperature they were measured at."""
-        return bool(self.acc_thermal.any()) and float(self.acc_offset_ref_c) != 0.0
+        return bool(self.acc_thermal.any()) and self.acc_offset_temperature_known
 
     def record(self, name: str) -> ProcedureRecord | None:
         """When procedure ``name`` filled this board's fields; None if it never did."""
@@ -1106,7 +1111,7 @@ class BoardCalibration:
         c = self._plain
         (ax, ay, az), (gx, gy, gz), mag = sample.acc, sample.gyr, sample.mag
         (ox, oy, oz), (sx, sy, sz), (bx, by, bz) = c.acc_offset, c.acc_scale, c.gyro_bias
-        if sample.temp_counts is not None:
+        if sample.temp_counts is not None and (c.gyro_thermal is not None or c.acc_thermal is not None):
             die = temp_c(sample.temp_counts)
             if c.gyro_thermal is not None:
                 dt = die - c.gyro_thermal_ref_c

@@ -61,7 +61,7 @@ from .calibration import MG, PROCEDURES, BoardCalibration, SixPoseResult
 from .mag_procedure import MagProcedure, MagResult, MagStatus
 from .magfit import MagFitError
 from .motion import SensorReading
-from .protocol import MAG_UT_PER_COUNT, STANDARD_GRAVITY, RawSample, temp_counts
+from .protocol import MAG_UT_PER_COUNT, RawSample, temp_counts
 from .sim import (Chain, LinkSpec, Motion, SampleStream, SensorErrors, SensorSpec, Simulator,
                   die_rise_c, realistic_errors)
 from .sim_board import ACC_FS_G, GYR_FS_DPS
@@ -411,7 +411,7 @@ def calibration_errors(fitted: BoardCalibration, truth: BoardCalibration) -> dic
     ``gyro_scale_error_pct``: the worst axis's fitted sensitivity over the true, less one, in %.
     """
     true_offset = truth.acc_offset + (truth.acc_thermal * (fitted.acc_offset_ref_c - truth.acc_offset_ref_c)
-                                      if fitted.acc_offset_ref_c else 0.0)
+                                      if fitted.acc_offset_temperature_known else 0.0)
     return {
         "acc_offset_error_mg": float(np.max(np.abs(fitted.acc_offset - true_offset))) / MG,
         "acc_scale_error_pct": float(np.max(np.abs(fitted.acc_scale / truth.acc_scale - 1.0))) * 100.0,

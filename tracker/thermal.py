@@ -106,11 +106,10 @@ class ThermalStatus:
         return head + (f"; this second was left out: {self.moved}" if self.moved else "")
 
 
-def fit_thermal(die_c: Array, gyr: Array, acc: Array | None = None,
-                params: ThermalParams = ThermalParams()) -> ThermalResult:
+def fit_thermal(die_c: Array, gyr: Array, acc: Array, params: ThermalParams = ThermalParams()) -> ThermalResult:
     """Each axis's bias as a line in the temperature (module docstring), from still seconds' means:
     ``die_c`` (N,) degC, ``gyr`` (N, 3) rad/s and ``acc`` (N, 3) m/s^2 (the accelerometer's lines: the
-    board lies still, so its reading moves only as its zero-g level does; None: not fitted).
+    board lies still, so its reading moves only as its zero-g level does).
     Refused below the params' minimums."""
     n = len(die_c)
     if n < params.min_still_s:
@@ -123,8 +122,7 @@ def fit_thermal(die_c: Array, gyr: Array, acc: Array | None = None,
             "unplug it for ten minutes so that it starts cold, then run this again"))
     ref = float(np.mean(die_c))
     x = np.column_stack([np.ones(n), die_c - ref])
-    readings = np.column_stack([gyr, np.zeros((n, 3)) if acc is None else acc])
-    coef, *_ = np.linalg.lstsq(x, readings, rcond=None)
+    coef, *_ = np.linalg.lstsq(x, np.column_stack([gyr, acc]), rcond=None)
     residual = gyr - x @ coef[:, :3]
     return ThermalResult(coef[1, :3], coef[1, 3:], ref, rise, float(np.sqrt(np.mean(residual**2))) / DEG, n)
 

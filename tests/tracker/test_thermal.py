@@ -108,10 +108,9 @@ def test_the_fit_recovers_a_line_worked_by_hand_and_refuses_what_it_cannot_fit()
     np.testing.assert_allclose(fit.slope, slope, atol=1e-12)
     np.testing.assert_allclose(fit.acc_slope, acc_slope, atol=1e-12)
     assert fit.residual_dps == pytest.approx(0.0, abs=1e-9)
-    assert not fit_thermal(die, gyr).acc_slope.any()  # no accelerometer given, none fitted
-    short = fit_thermal(die[:100], gyr[:100])
+    short = fit_thermal(die[:100], gyr[:100], acc[:100])
     assert not short.ok and "only 100 s" in short.problem and short.warmed
-    flat = fit_thermal(np.full(200, 25.0) + np.linspace(0, 0.5, 200), gyr)
+    flat = fit_thermal(np.full(200, 25.0) + np.linspace(0, 0.5, 200), gyr, acc)
     assert not flat.ok and not flat.warmed and "warmed by only 0.50 degC" in flat.problem
 
 
