@@ -13,6 +13,22 @@ from tracker.atomic import AtomicFile, OutputError, check_output, discard_pendin
 from tracker.signals import Interrupted, deferred, exit_status, interrupts
 
 
+@pytest.fixture(autouse=True)
+def dispositions_of_a_terminal():
+    """Each test starts with the handlers a program run from a terminal has, and leaves them as it found them.
+
+    A test run started in the background by a non-interactive shell (``pytest &``) inherits SIGINT
+    ignored, which these tests' signals would otherwise meet: a signal the user ignored stays ignored.
+    """
+    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)
+    yield
+    for s, h in before.items():
+        signal.signal(s, h)
+
+
 def send(sig: int) -> None:
     """Send ``sig`` to this process; Python runs its handler before the next line."""
     os.kill(os.getpid(), sig)
@@ -117,7 +133,6 @@ def test_a_signal_while_the_handlers_are_put_back_never_escapes(monkeypatch, ign
     """The block is done when a SIGHUP arrives between putting back SIGINT's handler and SIGHUP's
     (seen in CI: a traceback from the restoring loop). It must not raise there; the handler in
     force before takes it, or, for a program on its way out, nothing does."""
-    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
     heard: list[int] = []
     signal.signal(signal.SIGHUP, lambda signum, frame: heard.append(signum))
     real_signal = signal.signal
@@ -129,39 +144,28 @@ def test_a_signal_while_the_handlers_are_put_back_never_escapes(monkeypatch, ign
             send(signal.SIGHUP)
         return real_signal(signum, handler)
 
-    try:
-        with interrupts(ignore_after=ignore_after) as received:
-            monkeypatch.setattr(signal, "signal", hup_while_restoring)
-        monkeypatch.undo()
-        assert restoring == [signal.SIGINT] and received.signum is None
-        assert heard == ([] if ignore_after else [signal.SIGHUP])
-    finally:
-        monkeypatch.undo()
-        for s, h in before.items():
-            signal.signal(s, h)
+    with interrupts(ignore_after=ignore_after) as received:
+        monkeypatch.setattr(signal, "signal", hup_while_restoring)
+    monkeypatch.undo()
+    assert restoring == [signal.SIGINT] and received.signum is None
+    assert heard == ([] if ignore_after else [signal.SIGHUP])
 
 
 def test_deferred_hands_the_held_signal_to_the_handler_before_it():
     heard: list[int] = []
-    old = signal.signal(signal.SIGHUP, lambda signum, frame: heard.append(signum))
-    try:
-        with deferred() as held:
-            send(signal.SIGHUP)
-            send(signal.SIGHUP)
-            assert heard == [] and held.signum == signal.SIGHUP
-        assert heard == [signal.SIGHUP]  # once, after the block
-    finally:
-        signal.signal(signal.SIGHUP, old)
+    signal.signal(signal.SIGHUP, lambda signum, frame: heard.append(signum))
+    with deferred() as held:
+        send(signal.SIGHUP)
+        send(signal.SIGHUP)
+        assert heard == [] and held.signum == signal.SIGHUP
+    assert heard == [signal.SIGHUP]  # once, after the block
 
 
 def test_a_signal_the_user_ignored_stays_ignored():
-    old = signal.signal(signal.SIGHUP, signal.SIG_IGN)
-    try:
-        with interrupts():
-            send(signal.SIGHUP)  # nohup: no interruption
-        assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
-    finally:
-        signal.signal(signal.SIGHUP, old)
+    signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    with interrupts():
+        send(signal.SIGHUP)  # nohup: no interruption
+    assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
 
 
 def test_exit_status_is_128_plus_the_signal_number():
