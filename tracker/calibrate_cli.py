@@ -316,7 +316,7 @@ def finish_mag(board_id: str, procedure: MagProcedure, status: MagStatus,
     return fitted, C.ProcedureRecord.now("mag", figures), values, [line]
 
 
-# ----------------------------------------------------------------- the gyroscope's warm-up
+# ----------------------------------------------------------------- the sensors' warm-up drift
 
 
 @dataclass
@@ -328,7 +328,7 @@ class ThermalNarrator:
 
     def __call__(self, before: ThermalStatus | None, st: ThermalStatus, term: Terminal) -> None:
         if before is None:
-            term.say("the gyroscope's warm-up: power the board up cold (unplugged for ten minutes or more) and "
+            term.say("the sensors' warm-up drift: power the board up cold (unplugged for ten minutes or more) and "
                      "leave it lying still while it warms; nothing to do until it is done")
         minutes = int(st.elapsed_s // MINUTE_S)
         if minutes > self.said_minutes and st.die_c is not None:
@@ -356,7 +356,7 @@ def finish_thermal(board_id: str, procedure: ThermalProcedure, status: ThermalSt
     fitted, record = thermal_calibration(board_id, result)
     values = {"still_s": result.seconds, "gyro_thermal": result.slope.tolist(),
               "gyro_thermal_ref_c": result.ref_c, "acc_thermal": result.acc_slope.tolist(), **dict(record.figures)}
-    line = (f"gyroscope warm-up: bias slope ({_numbers(np.degrees(result.slope), '{:+.4f}')}) deg/s per degC about "
+    line = (f"warm-up drift: gyroscope bias slope ({_numbers(np.degrees(result.slope), '{:+.4f}')}) deg/s per degC about "
             f"{result.ref_c:.2f} degC; warmed {result.rise_c:.2f} degC, residual {result.residual_dps:.3f} deg/s")
     acc_line = f"accelerometer zero-g slope ({_numbers(result.acc_slope / C.MG, '{:+.3f}')}) mg per degC"
     return fitted, record, values, [line, acc_line]
@@ -516,7 +516,8 @@ def show_board(cal: C.BoardCalibration) -> list[str]:
                          f"scale ({_numbers(cal.acc_scale, '{:.5f}')}); gyroscope sensitivities {measured}")
         elif name == "thermal":
             lines.append(f"  {'':13s}  bias slope ({_numbers(np.degrees(cal.gyro_thermal), '{:+.4f}')}) deg/s "
-                         f"per degC about {float(cal.gyro_thermal_ref_c):.2f} degC")
+                         f"per degC about {float(cal.gyro_thermal_ref_c):.2f} degC; accelerometer zero-g slope "
+                         f"({_numbers(cal.acc_thermal / C.MG, '{:+.3f}')}) mg per degC")
         else:
             lines.append(f"  {'':13s}  hard iron ({_numbers(cal.mag_hard_iron, '{:+.2f}')}) uT, "
                          f"soft iron rows {_rows(cal.mag_soft_iron)}")

@@ -874,7 +874,7 @@ PROCEDURES: dict[str, tuple[str, ...]] = {
     "mag": ("mag_hard_iron", "mag_soft_iron"),
     "thermal": ("gyro_thermal", "gyro_thermal_ref_c", "acc_thermal"),
 }
-PROCEDURE_TITLES: dict[str, str] = {"accel": "accelerometer", "mag": "magnetometer", "thermal": "gyroscope warm-up"}
+PROCEDURE_TITLES: dict[str, str] = {"accel": "accelerometer", "mag": "magnetometer", "thermal": "warm-up drift"}
 # Fields older files lack: they take their defaults.
 _ADDED_LATER = ("gyro_thermal", "gyro_thermal_ref_c", "gyro_scale", "acc_thermal", "acc_offset_ref_c")
 _FIGURE_NAME = re.compile(r"[a-z][a-z0-9_]{0,39}")

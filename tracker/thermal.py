@@ -1,4 +1,5 @@
-"""The gyroscope's warm-up calibration: its bias as a line in the die's temperature, a streaming procedure.
+"""The sensors' warm-up calibration: the gyroscope's bias and the accelerometer's zero-g level as
+lines in the die's temperature, a streaming procedure.
 
 Why. The MPU-9250's zero-rate output moves with its temperature (+-30 deg/s
 over -40 to +85 degC, PS-MPU-9250A-01 table 1). A board warms by a few degC

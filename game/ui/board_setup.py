@@ -148,13 +148,13 @@ class BoardSetup:
         if self.phase == MAG:
             return self.mag.status.message
         if self.phase == WARM_WAIT:
-            return ("the gyroscope's warm-up: unplug the board for ten minutes so that it cools, then plug it "
+            return ("the sensors' warm-up drift: unplug the board for ten minutes so that it cools, then plug it "
                     "back in and leave it lying still while it warms (ten minutes)")
         if self.phase == WARM:
             return self.warm.status.message
         if self.phase == FAILED:
             return self.problem
-        done = {ACCEL_DONE: "accelerometer", MAG_DONE: "magnetometer", WARM_DONE: "gyroscope's warm-up"}[self.phase]
+        done = {ACCEL_DONE: "accelerometer", MAG_DONE: "magnetometer", WARM_DONE: "warm-up drift"}[self.phase]
         return f"{done} calibrated" + (f": {self.problem}" if self.problem else "")
 
     def keys(self) -> str:

@@ -93,7 +93,7 @@ def test_records_say_when_in_local_time_and_old_files_without_them_still_load(tm
     cal = C.load("b1", tmp_path)
     assert cal.procedures == () and cal.acc_offset.tolist() == [0.1, 0, 0]
     assert C.done_text(cal) == ("accelerometer not calibrated, magnetometer not calibrated, "
-                                "gyroscope warm-up not calibrated")
+                                "warm-up drift not calibrated")
 
 
 @pytest.mark.parametrize("procedures, words", [
@@ -148,7 +148,7 @@ def test_load_for_hello_says_what_it_loaded_or_why_not(tmp_path):
     cal, notice = C.load_for_hello(HELLO, tmp_path)
     assert fields_of(cal, "accel") == fields_of(fitted("accel", 0.2), "accel")
     assert notice == (f"board calibration loaded from {tmp_path / 'imu-71.json'} "
-                      f"(accelerometer {rec.when}, magnetometer not calibrated, gyroscope warm-up not calibrated)")
+                      f"(accelerometer {rec.when}, magnetometer not calibrated, warm-up drift not calibrated)")
     cal, notice = C.load_for_hello(HELLO, tmp_path, virtual=True)  # the real board's file is not the virtual's
     assert cal.procedures == () and "virtual-imu-71.json: no calibration saved" in notice
 

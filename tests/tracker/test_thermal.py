@@ -146,8 +146,8 @@ def test_a_finished_warm_up_is_saved_with_its_figures_and_shown():
     assert errors["gyro_thermal_error_dps_per_c"] < 0.002 and errors["acc_thermal_error_mg_per_c"] < 0.02
     assert "accelerometer zero-g slope (" in lines[1] and values["acc_thermal"] == pytest.approx(fitted.acc_thermal)
     shown = show_board(BoardCalibration("imu-71", procedures=(record,)).with_procedure(fitted, record))
-    assert any(line.strip().startswith("gyroscope warm-up") for line in shown)
-    assert any("deg/s per degC about" in line for line in shown)
+    assert any(line.strip().startswith("warm-up drift") for line in shown)
+    assert any("deg/s per degC about" in line and "zero-g slope (" in line for line in shown)
 
 
 # ----------------------------------------------------------------- in play
