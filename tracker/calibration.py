@@ -1070,6 +1070,11 @@ class BoardCalibration:
         object.__setattr__(self, "_plain", _PlainCalibration.of(self))
 
     @property
+    def gyro_thermal_known(self) -> bool:
+        """Whether a thermal calibration measured the gyroscope's bias slope (its warm-up)."""
+        return bool(self.gyro_thermal.any())
+
+    @property
     def acc_offset_temperature_known(self) -> bool:
         """Whether the six-pose procedure knew the die's temperature (``acc_offset_ref_c`` 0: it did not)."""
         return float(self.acc_offset_ref_c) != 0.0

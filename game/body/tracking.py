@@ -74,7 +74,9 @@ class Tracking:
             return ArmPose(sample.q, sample.flex_deg, sample.t)
         t = sample.t
         if self._last_t is None and isinstance(self.filter, DefaultFilter):
-            self.filter.power_on(t)  # device time is the board's age (its clock starts at power-up)
+            # device time is the board's age (its clock starts at power-up); a calibrated warm-up is
+            # corrected only where the board sends its die's temperature
+            self.filter.power_on(t, self.board.gyro_thermal_known and sample.temp_counts is not None)
         dt = self._step(t)
         acc, gyr, mag = self.board.apply(sample)
         if isinstance(self.filter, DefaultFilter):  # (the filters compared with it are fed as they were)

@@ -117,6 +117,11 @@ class DefaultParams:
     degrees more than at 10 s (at power-on, :meth:`DefaultFilter.power_on` starts the
     drift loop fast instead). ``drift_tau`` lets it fade as the warming does (the
     longer end of the range: the loop corrects a drift that fades sooner).
+    ``drift_settle_t``: motion teaches the drift only once the bias loop's response
+    to the start has settled (:meth:`DefaultFilter._learn_bias_in_motion`): the
+    loop, 1 / ``bias_tau_min`` behind the accelerometer's ``tau_acc`` low-pass
+    with a phase margin of about 50 degrees (damping about 0.5), settles a step
+    to 2 % in about 4 / (0.5 / 3 s), some 20 s.
     """
 
     tau_acc: float = 3.0  # low-pass time constant of the accelerometer in frame I (VQF sec. 3.2)
@@ -138,6 +143,7 @@ class DefaultParams:
     drift_t: float = 15.0  # the drift's random walk makes the bias loop follow a ramp within about this, s
     drift_tau: float = 300.0  # a learned drift fades with the board's thermal time constant (150-300 s)
     drift_max: float = math.radians(0.05)  # |drift| limit per axis (rad/s per s): 4 deg/s of warm-up at 150 s
+    drift_settle_t: float = 20.0  # a calibrated warm-up's drift is taught by motion only this long after the start, s
     mag_norm_th: float = 0.1  # field norm deviating by more than this fraction: disturbed
     mag_dip_th: float = math.radians(10.0)  # dip angle deviating by more than this: disturbed
     mag_ref_tau: float = 20.0  # how fast the undisturbed field reference (norm, dip) adapts
@@ -184,6 +190,7 @@ class DefaultState:
     drift: Vec = (0.0, 0.0, 0.0)  # the bias's rate of change as the board warms, rad/s per s
     drift_p: Sym3 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # the drift's covariance, in bias_p's units per s^2
     cross_p: Mat3 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # bias-drift covariance, row i bias_i
+    warmup_calibrated: bool = False  # power_on said a thermal calibration corrects the warm-up (most of it)
     t: float = 0.0  # time since start
     start: StartMean = field(default_factory=StartMean)  # the accelerometer in I over the start-up
     mag_norm: float = 0.0  # reference field norm (uT), 0 until known
@@ -276,7 +283,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
             s.tilt_sum, s.tilt_dt, s.tilt_n = (cx + tilt[0], cy + tilt[1]), s.tilt_dt + dt, s.tilt_n + 1
             if s.tilt_n == BIAS_EVERY:
                 (cx, cy), t = s.tilt_sum, s.tilt_dt
-                self._learn_bias_in_motion(cx / t, cy / t, t)
+                self._learn_bias_in_motion(cx / t, cy / t, t, not s.warmup_calibrated or s.t > p.drift_settle_t)
                 s.tilt_sum, s.tilt_dt, s.tilt_n = (0.0, 0.0), 0.0, 0
         # 3. Heading from the magnetometer, with disturbance rejection (VQF sec. 3.4). The AK8963
         #    measures at 100 Hz and the board sends its latest reading with every sample: a reading
@@ -325,9 +332,12 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         s.cross_p = (c * s.cross_p[0], c * s.cross_p[1], c * s.cross_p[2], c * s.cross_p[3], c * s.cross_p[4],
                      c * s.cross_p[5], c * s.cross_p[6], c * s.cross_p[7], c * s.cross_p[8])
 
-    def power_on(self, age_s: float) -> None:
+    def power_on(self, age_s: float, warmup_calibrated: bool = False) -> None:
         """The board powered up ``age_s`` seconds ago (its own clock): its warm-up drift is least
         known now, so the drift starts uncertain rather than known to be zero.
+        ``warmup_calibrated``: a thermal calibration corrects the readings (:mod:`tracker.thermal`),
+        leaving the share of the warm-up that differs from one warming to the next: then the
+        drift is learned only once the start has settled (:meth:`_learn_bias_in_motion`).
 
         The warm-up is a first-order thermal step (:meth:`_drift_bias`): the bias's rate
         of change is largest at power-on and decays as exp(-t / ``drift_tau``), its
@@ -345,6 +355,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         VQF's 1.26; 1.23 without).
         """
         s, p = self._state, self.params
+        s.warmup_calibrated = warmup_calibrated
         d = math.sqrt(2.0) / p.bias_tau_min ** 3 * math.exp(-2.0 * max(0.0, age_s) / p.drift_tau)
         xx, xy, xz, yy, yz, zz = s.drift_p
         s.drift_p = (xx + d, xy, xz, yy + d, yz, zz + d)
@@ -453,9 +464,10 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         s.q_inc = normalize(mul(from_rotvec(rx, ry, 0.0), s.q_inc))
         return rx, ry
 
-    def _learn_bias_in_motion(self, cx: float, cy: float, dt: float) -> None:
+    def _learn_bias_in_motion(self, cx: float, cy: float, dt: float, drift: bool) -> None:
         """The bias from the inclination correction rate (VQF sec. 3.3 "motion bias
-        estimation"; Mahony eq. 32 is the same idea as a fixed integral gain).
+        estimation"; Mahony eq. 32 is the same idea as a fixed integral gain), and
+        with ``drift`` its rate of change.
 
         A bias error e turns the strapdown frame I by R_IS e per second. The
         accelerometer's low-pass in I (:meth:`_correct_inclination`) passes that
@@ -466,6 +478,19 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         H = P R_EI LP(R_IS). Low-passing the prediction as the correction was
         (as VQF does) keeps the estimate from chasing the low-pass's delay. As
         the arm turns, every sensor axis takes its turn at being horizontal.
+
+        ``drift`` False (on a board whose warm-up is calibrated, the first
+        ``drift_settle_t`` after the start: :meth:`power_on`) leaves the drift alone. The
+        bias the start gave (the start-up hold's, or none) is off by some amount, a step
+        the loop takes out in its first seconds, and a two-state loop takes part of a step
+        for a ramp while its response lasts; the ramp it learns outlives the step by
+        ``drift_tau`` and, about the vertical, turns the heading for minutes. Fast, swaying
+        simulated players, whose holds leave the larger steps, lost their heading so
+        without a field (README, "A step taken for a ramp"). What a calibration leaves of a
+        warm-up ramps slowly enough for the bias alone to follow meanwhile; an uncalibrated
+        board's warm-up is steepest just then, and its drift is learned from the start
+        (a 4 deg/s warm-up learned 20 s late costs a fast mover's heading 2.6 degrees in
+        150 s instead of 1.4: the robustness tests).
         """
         s = self._state
         w, x, y, z = s.q_gyr  # R_IS, by rows
@@ -486,7 +511,8 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
             h = (a0 * m0[0] + a1 * m1[0] + a2 * m2[0], a0 * m0[1] + a1 * m1[1] + a2 * m2[1],
                  a0 * m0[2] + a1 * m1[2] + a2 * m2[2])
             b = s.bias
-            self._observe_bias(h, a0 * pb[0] + a1 * pb[1] + a2 * pb[2] - c - (h[0] * b[0] + h[1] * b[1] + h[2] * b[2]), r)
+            self._observe_bias(h, a0 * pb[0] + a1 * pb[1] + a2 * pb[2] - c - (h[0] * b[0] + h[1] * b[1] + h[2] * b[2]), r,
+                               drift)
 
     # ------------------------------------------------------------ heading
 

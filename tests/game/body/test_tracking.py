@@ -1,4 +1,5 @@
-"""The tracking's start: the board's clock tells the filter how long ago it powered up."""
+"""The tracking's start: the board's clock tells the filter how long ago it powered up, and its
+calibration whether its warm-up is corrected."""
 
 from __future__ import annotations
 
@@ -6,13 +7,16 @@ import math
 
 import pytest
 
+import numpy as np
+
 from game.body.tracking import Tracking
 from tracker import protocol as P
+from tracker.calibration import BoardCalibration
 
 
-def sample(t: float) -> P.RawSample:
+def sample(t: float, temp_counts: int | None = None) -> P.RawSample:
     """A board lying flat and still (2048 counts = 1 g at +-16 g), ``t`` s after its power-up."""
-    return P.RawSample(t, round(t * 1e6), 0, (0, 0, 2048), (0, 0, 0), None, 512)
+    return P.RawSample(t, round(t * 1e6), 0, (0, 0, 2048), (0, 0, 0), None, 512, temp_counts=temp_counts)
 
 
 @pytest.mark.parametrize("age_s", [0.0, 300.0])
@@ -26,3 +30,15 @@ def test_the_first_sample_gives_the_filter_the_boards_age(age_s):
     # Only the first sample after a start says so: the next one adds no second prior.
     tracking.feed(sample(age_s + 0.005))
     assert tracking.filter.get_state().drift_p[0] == pytest.approx(expected, rel=1e-3, abs=1e-6)
+
+
+@pytest.mark.parametrize("slope, temp_counts, calibrated", [
+    ((0.001, -0.002, 0.0005), 1200, True),  # a thermal calibration, and the die's temperature to use it
+    ((0.001, -0.002, 0.0005), None, False),  # a firmware without TEMP frames: the slope cannot be used
+    ((0.0, 0.0, 0.0), 1200, False),  # no thermal calibration: the whole warm-up is left to learn
+])
+def test_the_filter_is_told_whether_the_warm_up_is_calibrated(slope, temp_counts, calibrated):
+    board = BoardCalibration("imu-1", gyro_thermal=np.array(slope), gyro_thermal_ref_c=np.array(30.0))
+    tracking = Tracking(use_magnetometer=False, board=board)
+    tracking.feed(sample(0.0, temp_counts))
+    assert tracking.filter.get_state().warmup_calibrated is calibrated
