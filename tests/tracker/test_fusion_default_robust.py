@@ -204,7 +204,8 @@ def test_a_board_just_powered_on_holds_its_heading_through_the_warm_up():
 def stepped_heading_deg(seed: int, settle_t: float) -> float:
     """Mean |heading error| (deg) over the last 10 s of 150 s of play without a magnetometer, on a
     board whose warm-up is calibrated (none left here), started with the bias off by 1 deg/s on
-    each axis: a hold under sway leaves such a step (``startup_bias`` accepts a mean known so well)."""
+    each axis: a hold can leave such a step (``startup_bias`` accepts a turn its tilt does not explain
+    of up to ``StartupParams.max_rate``, 1.15 deg/s)."""
     gyr, acc, _, truth, bias = session(150.0, 0.0, None, seed)
 
     def start(f: DefaultFilter) -> None:
