@@ -981,7 +981,7 @@ class _PlainCalibration:
         """The plain-float copy of ``cal``'s arrays."""
         return cls(_floats(cal.gyro_bias), _floats(cal.acc_offset), _floats(cal.acc_scale),
                    _matrix(cal.acc_misalignment), _floats(cal.mag_hard_iron),
-                   _matrix(cal.mag_soft_iron), _floats(cal.gyro_thermal) if cal.gyro_thermal.any() else None,
+                   _matrix(cal.mag_soft_iron), _floats(cal.gyro_thermal) if cal.gyro_thermal_known else None,
                    float(cal.gyro_thermal_ref_c), _matrix(cal.gyro_scale),
                    _floats(cal.acc_thermal) if cal.acc_thermal_known else None, float(cal.acc_offset_ref_c))
 
