@@ -41,7 +41,7 @@ from .link import Link
 from .mag_procedure import MagProcedure, MagStatus
 from .magfit import MagFitError
 from .protocol import BoardError, Hello, RawSample
-from .thermal import ThermalParams, ThermalProcedure, ThermalStatus, thermal_calibration
+from .thermal import NEGLIGIBLE, ThermalParams, ThermalProcedure, ThermalStatus, thermal_calibration
 
 if TYPE_CHECKING:  # the virtual board and the simulated maker are POSIX only (a pty): imported when used
     from .board import VirtualBoard
@@ -356,6 +356,8 @@ def finish_thermal(board_id: str, procedure: ThermalProcedure, status: ThermalSt
     fitted, record = thermal_calibration(board_id, result)
     values = {"still_s": result.seconds, "gyro_thermal": result.slope.tolist(),
               "gyro_thermal_ref_c": result.ref_c, "acc_thermal": result.acc_slope.tolist(), **dict(record.figures)}
+    if result.negligible:
+        return fitted, record, values, [f"warm-up drift: warmed {result.rise_c:.2f} degC from power-up: {NEGLIGIBLE}"]
     line = (f"warm-up drift: gyroscope bias slope ({_numbers(np.degrees(result.slope), '{:+.4f}')}) deg/s per degC about "
             f"{result.ref_c:.2f} degC; warmed {result.rise_c:.2f} degC, residual {result.residual_dps:.3f} deg/s")
     acc_line = f"accelerometer zero-g slope ({_numbers(result.acc_slope / C.MG, '{:+.3f}')}) mg per degC"
@@ -514,6 +516,8 @@ def show_board(cal: C.BoardCalibration) -> list[str]:
                 else "not measured"
             lines.append(f"  {'':13s}  offset ({_numbers(cal.acc_offset, '{:+.4f}')}) m/s^2, "
                          f"scale ({_numbers(cal.acc_scale, '{:.5f}')}); gyroscope sensitivities {measured}")
+        elif name == "thermal" and not (cal.gyro_thermal.any() or cal.acc_thermal.any()):
+            lines.append(f"  {'':13s}  a negligible warm-up: no slope to keep")
         elif name == "thermal":
             lines.append(f"  {'':13s}  bias slope ({_numbers(np.degrees(cal.gyro_thermal), '{:+.4f}')}) deg/s "
                          f"per degC about {float(cal.gyro_thermal_ref_c):.2f} degC; accelerometer zero-g slope "

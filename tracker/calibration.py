@@ -1071,8 +1071,9 @@ class BoardCalibration:
 
     @property
     def gyro_thermal_known(self) -> bool:
-        """Whether a thermal calibration measured the gyroscope's bias slope (its warm-up)."""
-        return bool(self.gyro_thermal.any())
+        """Whether a thermal calibration measured the gyroscope's warm-up: its bias slope, or (a record
+        with zero slopes) that it is negligible (:mod:`tracker.thermal`)."""
+        return bool(self.gyro_thermal.any()) or self.record("thermal") is not None
 
     @property
     def acc_offset_temperature_known(self) -> bool:

@@ -57,7 +57,7 @@ from numpy.typing import NDArray
 from . import quat as Q
 from .accel_procedure import AccelProcedure, AccelStatus
 from .board import BoardSettings, acc_lsb, counts, gyr_lsb
-from .calibration import MG, PROCEDURES, BoardCalibration, SixPoseResult
+from .calibration import MG, BoardCalibration, SixPoseResult
 from .mag_procedure import MagProcedure, MagResult, MagStatus
 from .magfit import MagFitError
 from .motion import SensorReading
@@ -520,10 +520,8 @@ def calibrate(maker: SimulatedMaker, thermal: bool = True) -> tuple[BoardCalibra
     if thermal:
         warm = warm_up(maker)
         if isinstance(warm.result, ThermalResult) and not warm.error:
-            fitted, _ = thermal_calibration(cal.board_id, warm.result)
-            cal = replace(cal, **{name: getattr(fitted, name) for name in PROCEDURES["thermal"]})
-        elif not (isinstance(warm.result, ThermalResult) and not warm.result.warmed):  # (a board that
-            # barely warms has nothing to predict: no failure)
+            cal = cal.with_procedure(*thermal_calibration(cal.board_id, warm.result))
+        else:
             problems.append(f"warm-up calibration failed: {warm.error}")
     return cal, problems
 

@@ -29,11 +29,20 @@ degrees). c and T_ref are what the board's calibration keeps
 ``gyro_thermal_ref_c``); b0 is not: the start-up hold and the fusion learn
 the bias of the day, and the line predicts how it moves from there.
 
+A rise below ``min_rise_c`` is a warm-up too small to measure: below
+0.24 deg/s at the data sheet's steepest slope, nothing worth predicting.
+From a board seen powering up (its clock read less than :data:`FRESH_POWER_S`
+at the first sample; the maker was asked to power it up cold) that is a
+finding, kept as such:
+the slopes are zero, ``warmed`` False, and the fusion knows the warm-up is
+accounted for (:meth:`tracker.calibration.BoardCalibration.gyro_thermal_known`),
+so it does not take the start's bias error for a drift
+(:class:`tracker.fusion.default.DefaultParams` ``drift_settle_t``). From a
+board already on, a small rise says only that it was warm: refused.
+
 Refused, with the reason: samples without a temperature (a firmware before
 the TEMP frame), fewer than ``min_still_s`` still seconds, a rise below
-``min_rise_c`` (the board was warm already, or its warm-up is too small to
-measure: below 0.24 deg/s at the data sheet's steepest slope, nothing worth
-predicting; ``warmed`` tells this refusal from the others). What no calibration can know: the
+``min_rise_c`` from a board that was not seen powering up. What no calibration can know: the
 share of a warm-up that differs from one warming to the next (thermal
 hysteresis, about a quarter; :class:`tracker.sim.ErrorModel`). The fusion's
 bias tracking learns that in play (:mod:`tracker.fusion.default`).
@@ -51,6 +60,10 @@ from .calibration import DEG, MG, BoardCalibration, ProcedureRecord, RestParams,
 from .protocol import RawSample
 
 Array = NDArray[np.float64]
+
+FRESH_POWER_S = 20.0  # a board whose clock reads less than this powered up just now: its warm-up is all to come
+NEGLIGIBLE = ("a negligible warm-up, kept as such (if the board was warm when plugged in, "
+              "unplug it for ten minutes and run this again)")
 
 
 @dataclass(frozen=True)
@@ -76,11 +89,16 @@ class ThermalResult:
     residual_dps: float = 0.0
     seconds: int = 0
     problem: str = ""
-    warmed: bool = True  # False: refused for a rise below the minimum (nothing to predict, or a warm start)
+    warmed: bool = True  # False: a rise below the minimum (negligible from cold, else refused)
 
     @property
     def ok(self) -> bool:
         return not self.problem
+
+    @property
+    def negligible(self) -> bool:
+        """A board seen powering up that barely warmed: its warm-up, zero slopes, is kept."""
+        return self.ok and not self.warmed
 
 
 @dataclass(frozen=True)
@@ -107,21 +125,26 @@ class ThermalStatus:
         return head + (f"; this second was left out: {self.moved}" if self.moved else "")
 
 
-def fit_thermal(die_c: Array, gyr: Array, acc: Array, params: ThermalParams = ThermalParams()) -> ThermalResult:
+def fit_thermal(die_c: Array, gyr: Array, acc: Array, params: ThermalParams = ThermalParams(),
+                from_cold: bool = False) -> ThermalResult:
     """Each axis's bias as a line in the temperature (module docstring), from still seconds' means:
     ``die_c`` (N,) degC, ``gyr`` (N, 3) rad/s and ``acc`` (N, 3) m/s^2 (the accelerometer's lines: the
     board lies still, so its reading moves only as its zero-g level does).
-    Refused below the params' minimums."""
+    Refused below the params' minimums, but for a rise too small to measure from a board seen
+    powering up (``from_cold``): a negligible warm-up, zero slopes."""
     n = len(die_c)
     if n < params.min_still_s:
         return ThermalResult(seconds=n, problem=f"only {n} s of the board lying still (the fit needs "
                                                 f"{params.min_still_s:.0f}): keep it still and run this again")
     rise = float(np.max(die_c) - np.min(die_c))
-    if rise < params.min_rise_c:
-        return ThermalResult(rise_c=rise, seconds=n, warmed=False, problem=(
-            f"the board warmed by only {rise:.2f} degC (at least {params.min_rise_c:.1f} is needed): "
-            "unplug it for ten minutes so that it starts cold, then run this again"))
     ref = float(np.mean(die_c))
+    if rise < params.min_rise_c:
+        if from_cold:
+            spread = float(np.sqrt(np.mean((gyr - gyr.mean(axis=0)) ** 2))) / DEG
+            return ThermalResult(ref_c=ref, rise_c=rise, residual_dps=spread, seconds=n, warmed=False)
+        return ThermalResult(rise_c=rise, seconds=n, warmed=False, problem=(
+            f"the board warmed by only {rise:.2f} degC (at least {params.min_rise_c:.1f} is needed) and was "
+            "not seen powering up: unplug it for ten minutes so that it starts cold, then run this again"))
     x = np.column_stack([np.ones(n), die_c - ref])
     coef, *_ = np.linalg.lstsq(x, np.column_stack([gyr, acc]), rcond=None)
     residual = gyr - x @ coef[:, :3]
@@ -149,6 +172,7 @@ class ThermalProcedure:
         self._index = -1  # the second being gathered
         self._means: list[tuple[float, Array, Array]] = []  # still seconds: (die degC, gyro rad/s, acc m/s^2)
         self._first_c: float | None = None
+        self._from_cold: bool | None = None  # the board's clock read under FRESH_POWER_S at the first sample
         self._status = ThermalStatus()
 
     @property
@@ -173,7 +197,7 @@ class ThermalProcedure:
         if self._t0 is None:
             self._t0 = sample.t - self._status.elapsed_s
         if self._first_c is None:
-            self._first_c = die
+            self._first_c, self._from_cold = die, sample.t < FRESH_POWER_S
         elapsed = sample.t - self._t0
         index = math.floor(elapsed)
         moved = self._status.moved
@@ -204,4 +228,4 @@ class ThermalProcedure:
         die = np.array([m[0] for m in self._means])
         gyr = np.array([m[1] for m in self._means]).reshape(-1, 3)
         acc = np.array([m[2] for m in self._means]).reshape(-1, 3)
-        return fit_thermal(die, gyr, acc, self.params)
+        return fit_thermal(die, gyr, acc, self.params, bool(self._from_cold))

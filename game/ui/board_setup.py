@@ -43,7 +43,7 @@ from tracker.magfit import MagFitError
 from tracker.mag_procedure import MagProcedure, MagResult, MagStatus, bin_directions
 from tracker.maker_sim import SimulatedMaker, cold
 from tracker.protocol import RawSample
-from tracker.thermal import ThermalProcedure, ThermalStatus, thermal_calibration
+from tracker.thermal import FRESH_POWER_S, NEGLIGIBLE, ThermalProcedure, ThermalStatus, thermal_calibration
 
 from ..body.controls import SampleInput
 from ..body.tracking import Tracking
@@ -52,7 +52,6 @@ ACCEL, ACCEL_DONE, MAG, MAG_DONE, FAILED = "accel", "accel_done", "mag", "mag_do
 WARM_WAIT, WARM, WARM_DONE = "warm_wait", "warm", "warm_done"
 RUNNING = (ACCEL, MAG, WARM)
 Status = TypeVar("Status", AccelStatus, MagStatus, ThermalStatus)
-FRESH_POWER_S = 20.0  # a board whose clock reads less than this powered up just now: its warm-up is all to come
 
 
 class Follower(Protocol):
@@ -268,10 +267,13 @@ class BoardSetup:
         result = self.warm.result()
         if not result.ok:
             return self._fail(WARM_WAIT, result.problem)
-        self.figures = ["bias slope " + ", ".join(f"{v:+.4f}" for v in np.degrees(result.slope)) + " deg/s per degC",
-                        f"warmed {result.rise_c:.2f} degC over {result.seconds} still seconds",
-                        f"residual {result.residual_dps:.3f} deg/s",
-                        "accelerometer " + ", ".join(f"{v:+.3f}" for v in result.acc_slope / MG) + " mg per degC"]
+        warmed = f"warmed {result.rise_c:.2f} degC over {result.seconds} still seconds"
+        if result.negligible:
+            self.figures = [warmed, NEGLIGIBLE]
+        else:
+            self.figures = ["bias slope " + ", ".join(f"{v:+.4f}" for v in np.degrees(result.slope)) + " deg/s per degC",
+                            warmed, f"residual {result.residual_dps:.3f} deg/s",
+                            "accelerometer " + ", ".join(f"{v:+.3f}" for v in result.acc_slope / MG) + " mg per degC"]
         self._save(WARM_DONE, *thermal_calibration(self.board_id, result))
 
     def _fail(self, phase: str, problem: str) -> None:

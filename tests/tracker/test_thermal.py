@@ -110,8 +110,18 @@ def test_the_fit_recovers_a_line_worked_by_hand_and_refuses_what_it_cannot_fit()
     assert fit.residual_dps == pytest.approx(0.0, abs=1e-9)
     short = fit_thermal(die[:100], gyr[:100], acc[:100])
     assert not short.ok and "only 100 s" in short.problem and short.warmed
-    flat = fit_thermal(np.full(200, 25.0) + np.linspace(0, 0.5, 200), gyr, acc)
+    flat_die = np.full(200, 25.0) + np.linspace(0, 0.5, 200)
+    flat = fit_thermal(flat_die, gyr, acc)
     assert not flat.ok and not flat.warmed and "warmed by only 0.50 degC" in flat.problem
+    assert "not seen powering up" in flat.problem
+    # The same rise from a board seen powering up: a negligible warm-up, kept with zero slopes.
+    negligible = fit_thermal(flat_die, gyr, acc, from_cold=True)
+    assert negligible.ok and negligible.negligible and negligible.rise_c == pytest.approx(0.5)
+    assert not negligible.slope.any() and not negligible.acc_slope.any()
+    assert negligible.ref_c == pytest.approx(25.25)  # the mean of a linear ramp 25 .. 25.5
+    # about its zero-slope lines, the gyroscope's spread: the RMS over the axes of each one's deviation
+    assert negligible.residual_dps == pytest.approx(math.sqrt(np.mean(np.var(gyr, axis=0))) / DEG)
+    assert fit.ok and not fit.negligible
 
 
 def test_the_procedure_finds_the_boards_slope_from_cold_and_leaves_out_a_bump():
@@ -126,6 +136,24 @@ def test_the_procedure_finds_the_boards_slope_from_cold_and_leaves_out_a_bump():
     assert np.linalg.norm(run.result.acc_slope - truth.acc_thermal) / MG < 0.02  # of 1.5 mg per degC
     assert run.result.rise_c == pytest.approx(3.0 / 0.24, rel=0.01)  # the whole warm-up: 12.5 degC
     assert 597 <= run.result.seconds <= 599  # the bumped second or two of 600 left out
+
+
+def test_a_board_that_barely_warms_from_power_up_is_kept_as_negligible_and_a_warm_one_refused():
+    """0.1 deg/s of warm-up warms the die by 0.42 degC (0.24 deg/s per degC): below the 1 degC a slope
+    needs. Seen powering up, that is the board's warm-up, saved; its clock already at 300 s, it is not."""
+    board = SimulatedMaker(realistic_errors(gyro_warmup_dps=0.1), 3, rate_hz=10, power_on=THERMAL_POWER_ON)
+    proc = ThermalProcedure()
+    run_maker(proc, board, limit_s=601.0)
+    assert proc.result().negligible and proc.result().rise_c == pytest.approx(0.1 / 0.24, rel=0.05)
+    fitted, record, values, lines = finish_thermal("imu-72", proc, proc.status, 600.0)
+    assert "negligible" in lines[0] and not fitted.gyro_thermal.any() and values["rise_c"] < 1.0
+    saved = BoardCalibration("imu-72").with_procedure(fitted, record)
+    assert saved.gyro_thermal_known and not saved.acc_thermal_known
+    assert any("a negligible warm-up" in line for line in show_board(saved))
+    late = ThermalProcedure()
+    for k in range(6010):
+        late.feed(board.raw_sample(k / 10, k)._replace(t=300.0 + k / 10))
+    assert not late.result().ok and "not seen powering up" in late.result().problem
 
 
 def test_a_firmware_without_temp_frames_is_told_to_flash_the_current_one():

@@ -10,7 +10,7 @@ import pytest
 
 from game.body.tracking import Tracking
 from tracker import protocol as P
-from tracker.calibration import BoardCalibration
+from tracker.calibration import BoardCalibration, ProcedureRecord
 
 
 def sample(t: float, temp_counts: int | None = None) -> P.RawSample:
@@ -31,13 +31,16 @@ def test_the_first_sample_gives_the_filter_the_boards_age(age_s):
     assert tracking.filter.get_state().drift_p[0] == pytest.approx(expected, rel=1e-3, abs=1e-6)
 
 
-@pytest.mark.parametrize("slope, temp_counts, calibrated", [
-    ((0.001, -0.002, 0.0005), 1200, True),  # a thermal calibration, and the die's temperature to use it
-    ((0.001, -0.002, 0.0005), None, False),  # a firmware without TEMP frames: the slope cannot be used
-    ((0.0, 0.0, 0.0), 1200, False),  # no thermal calibration: the whole warm-up is left to learn
+@pytest.mark.parametrize("slope, recorded, temp_counts, calibrated", [
+    ((0.001, -0.002, 0.0005), True, 1200, True),  # a thermal calibration, and the die's temperature to use it
+    ((0.001, -0.002, 0.0005), True, None, False),  # a firmware without TEMP frames: the slope cannot be used
+    ((0.0, 0.0, 0.0), False, 1200, False),  # no thermal calibration: the whole warm-up is left to learn
+    ((0.0, 0.0, 0.0), True, 1200, True),  # one that found the warm-up negligible (tracker.thermal)
 ])
-def test_the_filter_is_told_whether_the_warm_up_is_calibrated(slope, temp_counts, calibrated):
-    board = BoardCalibration("imu-1", gyro_thermal=np.array(slope), gyro_thermal_ref_c=np.array(30.0))
+def test_the_filter_is_told_whether_the_warm_up_is_calibrated(slope, recorded, temp_counts, calibrated):
+    records = (ProcedureRecord.now("thermal", {"rise_c": 0.4}),) if recorded else ()
+    board = BoardCalibration("imu-1", gyro_thermal=np.array(slope), gyro_thermal_ref_c=np.array(30.0),
+                             procedures=records)
     tracking = Tracking(use_magnetometer=False, board=board)
     tracking.feed(sample(0.0, temp_counts))
     assert tracking.filter.get_state().warmup_calibrated is calibrated

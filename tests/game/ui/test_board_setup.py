@@ -168,6 +168,25 @@ def test_the_warm_up_waits_for_a_board_that_just_powered_up():
     assert setup.phase == WARM_WAIT
 
 
+@pytest.mark.parametrize("clock_s", [0.0, 500.0])
+def test_a_board_that_barely_warms_is_saved_as_negligible_only_when_seen_powering_up(tmp_path, clock_s):
+    """0.15 degC in 150 s (under the 1 degC a slope needs): from a board just plugged in, its warm-up,
+    kept with zero slopes; from one on for 500 s (S: start now), a warm board, refused."""
+    setup = BoardSetup("imu-71", directory=tmp_path)
+    setup.warm = ThermalProcedure(ThermalParams(duration_s=150.0))
+    setup.start(WARM)
+    setup.feed([P.RawSample(clock_s + k / 10, 0, k, (0, 0, 2048), (3, -2, 1), None, 400,
+                            temp_counts=P.temp_counts(30.0 + 0.001 * k / 10)) for k in range(1510)])
+    if clock_s:
+        assert setup.phase == FAILED and "not seen powering up" in setup.message()
+        assert list(tmp_path.iterdir()) == []
+        return
+    assert setup.phase == WARM_DONE and any("negligible" in line for line in setup.figures)
+    saved = load("imu-71", tmp_path)
+    assert saved.gyro_thermal_known and not saved.gyro_thermal.any() and not saved.acc_thermal.any()
+    assert dict(saved.record("thermal").figures)["rise_c"] == pytest.approx(0.15, abs=0.01)
+
+
 def test_a_board_without_temperatures_fails_the_warm_up_with_its_reason_and_saves_nothing(tmp_path):
     setup = BoardSetup("imu-71", directory=tmp_path)
     setup.start(WARM)  # S: on the board as it is
