@@ -33,8 +33,14 @@ about 4 Hz; a linear relation low-passed on both sides still holds, and
 gravity is taken off before, since it turns with the board): it learns o from the
 arm's moves, not from the board rocking on the soft tissue at 5-25 Hz, which
 turns it about a pivot of its own a centimetre or two under the strap and
-would pull o toward that. The correction takes the rates as measured (w'
-the difference of two samples): a tremor turns the humerus about the
+would pull o toward that. The correction takes the rates as measured, w'
+at the sample's own instant (the three-point backward difference of the
+last three rates, exact for a rate quadratic in time: B. Fornberg,
+"Generation of finite difference formulas on arbitrarily spaced grids",
+Math. Comp. 51(184), 1988; the difference of two samples is w' half a
+step earlier, and a launch's snap, w' x o some tens of m/s^2, taken off
+half a step late left a lean the filter's bias loop learned: README, "A
+step taken for a ramp"). A tremor turns the humerus about the
 shoulder, at up to 12 Hz, and a low-passed correction would lag it and add
 error rather than take it off (a fast, shaky simulated player's two-minute
 median aim went from 2.0 deg without the correction to 3.9 with a low-passed
@@ -81,7 +87,9 @@ class LeverArmState:
     gyr_lp: LowPass2
     acc_lp: LowPass2  # the accelerometer less gravity, low-passed as the rate is
     rate_lp: Vec | None = None  # the low-passed rate at the last sample (rad/s): the fit's
-    rate: Vec | None = None  # the rate at the last sample (rad/s): the correction's
+    rate: Vec | None = None  # the rate at the last sample (rad/s): the correction's ...
+    rate_before: Vec | None = None  # ... and at the one before it
+    dt_before: float = 0.0  # the interval between those two (s)
     info: tuple[float, float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # sum K'K: xx xy xz yy yz zz
     rhs: Vec = (0.0, 0.0, 0.0)  # sum -K'(a - g_s)
     offset: Vec = (0.0, 0.0, 0.0)  # o: the shoulder seen from the board, sensor frame (m)
@@ -129,8 +137,8 @@ class LeverArm:
         if s.since_solve >= p.solve_t:
             s.since_solve = 0.0
             self._solve()
-        k = _k_matrix(gyr, _rate_of_change(s.rate, gyr, dt))  # the correction: every turn of the bone
-        s.rate = gyr
+        k = _k_matrix(gyr, _rate_now(s.rate_before, s.rate, gyr, s.dt_before, dt))  # the correction: every
+        s.rate_before, s.rate, s.dt_before = s.rate, gyr, dt  # turn of the bone
         ox, oy, oz = s.offset
         return (ax + k[0] * ox + k[1] * oy + k[2] * oz, ay + k[3] * ox + k[4] * oy + k[5] * oz,
                 az + k[6] * ox + k[7] * oy + k[8] * oz)
@@ -174,6 +182,22 @@ def _rate_of_change(before: Vec | None, now: Vec, dt: float) -> Vec:
     if before is None:
         return (0.0, 0.0, 0.0)
     return ((now[0] - before[0]) / dt, (now[1] - before[1]) / dt, (now[2] - before[2]) / dt)
+
+
+def _rate_now(before2: Vec | None, before: Vec | None, now: Vec, h2: float, h1: float) -> Vec:
+    """w' at the latest of three rates, ``h1`` after the one ``before`` it, which came ``h2`` after
+    ``before2``: the three-point backward difference on an uneven grid (Fornberg 1988, module docstring),
+        w'(t) = w (2 h1 + h2) / (h1 (h1 + h2)) - w_1 (h1 + h2) / (h1 h2) + w_2 h1 / (h2 (h1 + h2)),
+    exact for a quadratic; (3 w - 4 w_1 + w_2) / (2 h) on an even one. With one rate before, the
+    two-point difference; with none, 0."""
+    if before is None:
+        return (0.0, 0.0, 0.0)
+    if before2 is None or not h2 > 0.0:
+        return _rate_of_change(before, now, h1)
+    h = h1 + h2
+    a, b, c = (h1 + h) / (h1 * h), h / (h1 * h2), h1 / (h2 * h)
+    return (a * now[0] - b * before[0] + c * before2[0], a * now[1] - b * before[1] + c * before2[1],
+            a * now[2] - b * before[2] + c * before2[2])
 
 
 def _k_matrix(w: Vec, wd: Vec) -> Mat3:

@@ -41,6 +41,24 @@ def test_a_board_spun_round_a_post_worked_by_hand():
     assert np.allclose(out[-1], (0.0, 0.0, GRAVITY), atol=0.01 * W * W * L)
 
 
+def test_the_correction_uses_the_rate_of_change_at_the_samples_own_instant():
+    """A board turning about its z at w = c t^2, the shoulder o = (L, 0, 0) from it, sampled every 4
+    and 6 ms in turn: the correction is w x (w x o) + w' x o with w' = 2 c t exactly (the three-point
+    difference is exact for a quadratic), where two samples' difference gives 2 c (t - h / 2)."""
+    c, L = 50.0, 0.3
+    lever = LeverArm()
+    lever.state.offset = (L, 0.0, 0.0)  # as if fitted (the fit is first solved after 1 s)
+    up, t, out = (1.0, 0.0, 0.0, 0.0), 0.0, []
+    for k in range(100):  # 0.5 s
+        dt = 0.004 if k % 2 else 0.006
+        t += dt
+        w = c * t * t
+        got = lever.at_shoulder((0.0, 0.0, w), (0.0, 0.0, GRAVITY), up, dt)
+        out.append((got, (-w * w * L, 2.0 * c * t * L, GRAVITY)))  # w x (w x o) = -w^2 o; w' x o along y
+    for got, expected in out[2:]:
+        assert got == pytest.approx(expected, rel=1e-9, abs=1e-9)
+
+
 def test_a_still_board_and_broken_readings_leave_the_fit_at_zero():
     lever = LeverArm()
     up = (1.0, 0.0, 0.0, 0.0)
