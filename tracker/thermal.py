@@ -33,12 +33,15 @@ A rise below ``min_rise_c`` is a warm-up too small to measure: below
 0.24 deg/s at the data sheet's steepest slope, nothing worth predicting.
 From a board seen powering up (its clock read less than :data:`FRESH_POWER_S`
 at the first sample; the maker was asked to power it up cold) that is a
-finding, kept as such:
-the slopes are zero, ``warmed`` False, and the fusion knows the warm-up is
-accounted for (:meth:`tracker.calibration.BoardCalibration.gyro_thermal_known`),
-so it does not take the start's bias error for a drift
+finding, kept as such: the slopes are zero, ``warmed`` False, and the
+fusion knows the warm-up is accounted for
+(:meth:`tracker.calibration.BoardCalibration.gyro_thermal_known`), so it
+does not take the start's bias error for a drift
 (:class:`tracker.fusion.default.DefaultParams` ``drift_settle_t``). From a
-board already on, a small rise says only that it was warm: refused.
+board already on, a small rise says only that it was warm: refused. The
+port's first opening resets an Arduino (:mod:`tracker.link`), so a board
+plugged in warm a moment before also reads a fresh clock: the saved line
+says what to do then (:data:`NEGLIGIBLE`).
 
 Refused, with the reason: samples without a temperature (a firmware before
 the TEMP frame), fewer than ``min_still_s`` still seconds, a rise below
@@ -126,12 +129,12 @@ class ThermalStatus:
 
 
 def fit_thermal(die_c: Array, gyr: Array, acc: Array, params: ThermalParams = ThermalParams(),
-                from_cold: bool = False) -> ThermalResult:
+                seen_powering_up: bool = False) -> ThermalResult:
     """Each axis's bias as a line in the temperature (module docstring), from still seconds' means:
     ``die_c`` (N,) degC, ``gyr`` (N, 3) rad/s and ``acc`` (N, 3) m/s^2 (the accelerometer's lines: the
     board lies still, so its reading moves only as its zero-g level does).
     Refused below the params' minimums, but for a rise too small to measure from a board seen
-    powering up (``from_cold``): a negligible warm-up, zero slopes."""
+    powering up (``seen_powering_up``): a negligible warm-up, zero slopes."""
     n = len(die_c)
     if n < params.min_still_s:
         return ThermalResult(seconds=n, problem=f"only {n} s of the board lying still (the fit needs "
@@ -139,7 +142,7 @@ def fit_thermal(die_c: Array, gyr: Array, acc: Array, params: ThermalParams = Th
     rise = float(np.max(die_c) - np.min(die_c))
     ref = float(np.mean(die_c))
     if rise < params.min_rise_c:
-        if from_cold:
+        if seen_powering_up:
             spread = float(np.sqrt(np.mean((gyr - gyr.mean(axis=0)) ** 2))) / DEG
             return ThermalResult(ref_c=ref, rise_c=rise, residual_dps=spread, seconds=n, warmed=False)
         return ThermalResult(rise_c=rise, seconds=n, warmed=False, problem=(
@@ -172,7 +175,7 @@ class ThermalProcedure:
         self._index = -1  # the second being gathered
         self._means: list[tuple[float, Array, Array]] = []  # still seconds: (die degC, gyro rad/s, acc m/s^2)
         self._first_c: float | None = None
-        self._from_cold: bool | None = None  # the board's clock read under FRESH_POWER_S at the first sample
+        self._seen_powering_up: bool | None = None  # the board's clock read under FRESH_POWER_S at the first sample
         self._status = ThermalStatus()
 
     @property
@@ -197,7 +200,7 @@ class ThermalProcedure:
         if self._t0 is None:
             self._t0 = sample.t - self._status.elapsed_s
         if self._first_c is None:
-            self._first_c, self._from_cold = die, sample.t < FRESH_POWER_S
+            self._first_c, self._seen_powering_up = die, sample.t < FRESH_POWER_S
         elapsed = sample.t - self._t0
         index = math.floor(elapsed)
         moved = self._status.moved
@@ -228,4 +231,4 @@ class ThermalProcedure:
         die = np.array([m[0] for m in self._means])
         gyr = np.array([m[1] for m in self._means]).reshape(-1, 3)
         acc = np.array([m[2] for m in self._means]).reshape(-1, 3)
-        return fit_thermal(die, gyr, acc, self.params, bool(self._from_cold))
+        return fit_thermal(die, gyr, acc, self.params, bool(self._seen_powering_up))

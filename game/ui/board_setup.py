@@ -271,8 +271,8 @@ class BoardSetup:
         if result.negligible:
             self.figures = [warmed, NEGLIGIBLE]
         else:
-            self.figures = ["bias slope " + ", ".join(f"{v:+.4f}" for v in np.degrees(result.slope)) + " deg/s per degC",
-                            warmed, f"residual {result.residual_dps:.3f} deg/s",
+            slope = ", ".join(f"{v:+.4f}" for v in np.degrees(result.slope))
+            self.figures = [f"bias slope {slope} deg/s per degC", warmed, f"residual {result.residual_dps:.3f} deg/s",
                             "accelerometer " + ", ".join(f"{v:+.3f}" for v in result.acc_slope / MG) + " mg per degC"]
         self._save(WARM_DONE, *thermal_calibration(self.board_id, result))
 

@@ -115,7 +115,7 @@ def test_the_fit_recovers_a_line_worked_by_hand_and_refuses_what_it_cannot_fit()
     assert not flat.ok and not flat.warmed and "warmed by only 0.50 degC" in flat.problem
     assert "not seen powering up" in flat.problem
     # The same rise from a board seen powering up: a negligible warm-up, kept with zero slopes.
-    negligible = fit_thermal(flat_die, gyr, acc, from_cold=True)
+    negligible = fit_thermal(flat_die, gyr, acc, seen_powering_up=True)
     assert negligible.ok and negligible.negligible and negligible.rise_c == pytest.approx(0.5)
     assert not negligible.slope.any() and not negligible.acc_slope.any()
     assert negligible.ref_c == pytest.approx(25.25)  # the mean of a linear ramp 25 .. 25.5
