@@ -211,8 +211,9 @@ class MonitorFusion:
     MAX_GAP_S = 0.5  # a longer gap between samples (link loss) keeps the last good time step
 
     def __init__(self) -> None:
-        from .fusion.default import DefaultFilter
-        self.filter = DefaultFilter()
+        from .fusion.default import DefaultFilter, DefaultParams
+        from .mpu_dlpf import Dlpf
+        self.filter = DefaultFilter(DefaultParams(acc_lead_s=Dlpf.for_rate(P.BOOT_RATE_HZ).acc_lead_s))
         self._last_t: float | None = None
         self._dt = 0.005
 

@@ -52,6 +52,12 @@ class Dlpf:
     accel_hz: float
     accel_delay_s: float
 
+    @property
+    def acc_lead_s(self) -> float:
+        """How much more recent the accelerometer's reading is than the gyroscope's (s): 1.0-1.03 ms at
+        every setting but the widest (code 0, 1 kHz), where the accelerometer lags by 0.91 ms."""
+        return self.gyro_delay_s - self.accel_delay_s
+
     @classmethod
     def for_rate(cls, rate_hz: float) -> Dlpf:
         """The setting the firmware chooses at ``rate_hz``."""

@@ -144,6 +144,8 @@ class DefaultParams:
     drift_tau: float = 300.0  # a learned drift fades with the board's thermal time constant (150-300 s)
     drift_max: float = math.radians(0.05)  # |drift| limit per axis (rad/s per s): 4 deg/s of warm-up at 150 s
     drift_settle_t: float = 20.0  # a calibrated warm-up's drift is taught by motion only this long after the start, s
+    acc_lead_s: float = 0.0  # how much more recent the accelerometer's reading is than the gyroscope's, s
+    # (the MPU-9250's low-pass filters delay them differently: tracker.mpu_dlpf, 1.02 ms at 200 Hz)
     mag_norm_th: float = 0.1  # field norm deviating by more than this fraction: disturbed
     mag_dip_th: float = math.radians(10.0)  # dip angle deviating by more than this: disturbed
     mag_ref_tau: float = 20.0  # how fast the undisturbed field reference (norm, dip) adapts
@@ -453,7 +455,8 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         # back, a tilt half a step behind the heading, and a fast snap with a slow return (every launch)
         # left a mean lean along the snap that the bias loop read as a bias, which walked the heading
         # (README, "A step taken for a ramp": 5-10 degrees in 90 s for the fastest simulated players).
-        h = 0.5 * dt
+        # A reading the sensor's low-pass delays less than the rates (acc_lead_s) is that much more recent.
+        h = 0.5 * dt - self.params.acc_lead_s
         c = cross(w, acc)
         a_i = rotate(s.q_gyr, (acc[0] - h * c[0], acc[1] - h * c[1], acc[2] - h * c[2]))
         if s.t <= self.params.startup_t:  # fast start: the plain mean, ended where the board's swing is undone
