@@ -211,9 +211,8 @@ class MonitorFusion:
     MAX_GAP_S = 0.5  # a longer gap between samples (link loss) keeps the last good time step
 
     def __init__(self) -> None:
-        from .fusion.default import DefaultFilter, DefaultParams
-        from .mpu_dlpf import Dlpf
-        self.filter = DefaultFilter(DefaultParams(acc_lead_s=Dlpf.for_rate(P.BOOT_RATE_HZ).acc_lead_s))
+        from .fusion.default import for_mpu9250
+        self.filter = for_mpu9250(P.BOOT_RATE_HZ)
         self._last_t: float | None = None
         self._dt = 0.005
 

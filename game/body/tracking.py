@@ -27,19 +27,14 @@ from tracker import protocol as P
 from tracker.calibration import BiasResult, BoardCalibration, startup_bias
 from tracker.flex import FlexCalibration, FlexTracker
 from tracker.fusion.base import Filter
-from tracker.fusion.default import DefaultFilter, DefaultParams
+from tracker.fusion.default import DefaultFilter, for_mpu9250
 from tracker.fusion.qmath import about_z, as_vec, mul
 from tracker.lever_arm import LeverArm
-from tracker.mpu_dlpf import Dlpf
 
 from .heading_anchor import HeadingAnchor
 from .pose import ArmPose
 
 MAX_GAP_S = 0.5  # a longer gap in device time (link loss) restarts the time base
-# The board's accelerometer reads about 1 ms more recently than its gyroscope (the MPU-9250's low-pass
-# filters at the firmware's setting, tracker.mpu_dlpf): the filter turns each specific force by the
-# orientation of its own instant (DefaultParams.acc_lead_s).
-ACC_LEAD_S = Dlpf.for_rate(P.BOOT_RATE_HZ).acc_lead_s
 
 
 @dataclass
@@ -49,8 +44,8 @@ class Tracking:
     use_magnetometer: bool = True
     board: BoardCalibration = field(default_factory=BoardCalibration)
     flex_calibration: FlexCalibration | None = None
-    filter: Filter = field(default_factory=lambda: DefaultFilter(DefaultParams(acc_lead_s=ACC_LEAD_S)))  # or
-    # another (tracker.fusion.make) to compare
+    filter: Filter = field(default_factory=lambda: for_mpu9250(P.BOOT_RATE_HZ))  # or another (tracker.fusion.make)
+    # to compare
     flex: FlexTracker = field(init=False)
     anchor: HeadingAnchor = field(default_factory=HeadingAnchor)  # "forward" as the field's heading settles
     lever: LeverArm = field(default_factory=LeverArm)  # the accelerometer moved to the shoulder

@@ -63,6 +63,7 @@ from mypy_extensions import mypyc_attr
 
 from ..calibration import RestDetector, RestParams
 from ..lowpass import LowPass2
+from ..mpu_dlpf import Dlpf
 from .base import Filter
 from .qmath import IDENTITY, Quat, Vec, about_z, cross, from_rotvec, integrate, mul, normalize, rotate, tilt_to_up
 from .start import StartMean
@@ -732,3 +733,10 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
 
 
 FILTER_CLASS = DefaultFilter
+
+
+def for_mpu9250(rate_hz: float) -> DefaultFilter:
+    """The default filter for an MPU-9250 streaming at ``rate_hz``: told how much more recently its
+    accelerometer reads than its gyroscope at the firmware's low-pass setting (``acc_lead_s``,
+    :class:`tracker.mpu_dlpf.Dlpf`)."""
+    return DefaultFilter(DefaultParams(acc_lead_s=Dlpf.for_rate(rate_hz).acc_lead_s))
