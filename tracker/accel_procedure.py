@@ -1,20 +1,27 @@
-"""The guided six-pose accelerometer calibration: a streaming procedure for a terminal or a screen.
+"""The guided accelerometer calibration: a streaming procedure for a terminal or a screen.
 
 The maker lays the board on a table with each of its six faces up in turn
-(each sensor axis once up, once down). Fed one raw sample at a time, the
-procedure says which face to put up next, recognises which face is up,
+(each sensor axis once up, once down), then leans it on one of its edges
+against something (a book, a mug) at about 45 deg, a new way each time, for
+``tilted`` more poses. Fed one raw sample at a time, the procedure says which
+face to put up next (or to lean the board), recognises which face is up or
+whether the board leans far enough from every face and every pose captured,
 shows how long the board has been still, and captures the pose by itself
-once the board has been still for ``hold_s`` on a face it has not captured
-yet. After six it solves offset and scale with
+once the board has been still for ``hold_s`` on a face or a lean it has not
+captured yet. At the end it solves offset, scale and misalignment with
 :func:`tracker.calibration.six_pose_calibration` (Tedaldi, Pretto and
 Menegatti, ICRA 2014: static poses, a cost on the calibrated norms against
 g; the six-position method of IEEE Std 1293-1998, annex A, for the start).
 
-Misalignment is not asked for: solving it needs at least three more still
-poses in orientations between the faces (tilted about 45 deg), which a board
-on a table does not hold by itself; the MPU-9250's cross-axis sensitivity is
-+-2 % (PS-MPU-9250A-01 rev. 1.1, table 2), and the result's misalignment is
-the identity.
+Why the leaning poses. The MPU-9250's accelerometer has a cross-axis
+sensitivity of +-2 % (PS-MPU-9250A-01 rev. 1.1, table 2): each axis reads up
+to 2 % of the force along the other two, a skew that leans gravity by up to
+a degree or so in some orientations and not in others, so the tilt the
+fusion keeps changes as the arm turns. The six faces' norms do not see it
+(to first order a face's norm holds its own axis's scale alone); Tedaldi's
+triangular misalignment needs at least three still poses between the faces,
+and four (``tilted``) leave one to spare. A board on a table does not hold
+such a pose by itself, hence the edge against a book.
 
 Stillness. A sample is still while the gyroscope and the accelerometer stay
 within VQF's rest thresholds of their own low-passed values
@@ -32,17 +39,19 @@ in the window form (:func:`tracker.calibration.window_motion`: every sample
 within the thresholds of the window's mean), which
 :func:`~tracker.calibration.six_pose_calibration` applies to its poses too.
 
-The turns. Between the poses the board is turned by 90 and 180 deg, and the
+The turns. Between the poses the board is turned by 45 to 180 deg, and the
 gyroscope's integral over each turn against gravity's directions before and
-after gives the gyroscope's three sensitivities (:mod:`tracker.gyro_scale`):
+after gives the gyroscope's sensitivity matrix (:mod:`tracker.gyro_scale`):
 :meth:`AccelProcedure.calibration` keeps them with the accelerometer's fit. A
 pulled cable or a stretch lost on the link breaks the chain of turns there.
 
 Faces. The face up is the sensor axis nearest the measured specific force
 (:func:`tracker.calibration.pose_label`); a board leaning more than
 ``max_tilt`` from it (20 deg, as :class:`tracker.calibration.PoseParams`)
-has no face up. Gravity's direction is what the accelerometer measures at
-rest (+g on the up axis, ARCHITECTURE.md).
+has no face up. A leaning pose counts once the board leans ``lean_apart``
+(25 deg) or more from every face and from every leaning pose captured
+before (nearer one, it is that pose again). Gravity's direction is what the
+accelerometer measures at rest (+g on the up axis, ARCHITECTURE.md).
 """
 
 from __future__ import annotations
@@ -60,6 +69,7 @@ from .gyro_scale import SensitivityFit, SensitivityParams, Turn, fit_sensitivity
 from .protocol import RawSample
 
 FACES: tuple[str, ...] = ("+z", "-z", "+x", "-x", "+y", "-y")  # the order the maker is asked for
+TILTED = "tilted"  # what is asked (and up) after the faces: a leaning pose
 Array = NDArray[np.float64]
 
 
@@ -84,6 +94,9 @@ class AccelProcedureParams:
     reported as "the board moved" (a shorter one is just the board being set
     down). ``max_gap_s``: samples further apart than this (a stretch lost on
     the link) break the hold. ``turns``: the gyroscope's fit from the turns between the poses.
+    ``tilted``: leaning poses after the faces (module docstring; 0 leaves the misalignment
+    the identity, as before they were asked for); ``lean_apart``: how far a leaning pose
+    leans from every face and every leaning pose before it.
     """
 
     hold_s: float = 2.0
@@ -92,17 +105,21 @@ class AccelProcedureParams:
     moved_after_s: float = 0.3
     max_gap_s: float = 0.25
     turns: SensitivityParams = field(default_factory=SensitivityParams)  # the gyroscope's fit from the turns
+    tilted: int = 4
+    lean_apart: float = 25.0 * DEG
 
 
 @dataclass(frozen=True)
 class AccelStatus:
     """What the procedure shows now (read-only, for a terminal or a game screen).
 
-    ``asked``: the face to put up next (None once all six are captured); ``up``:
-    the face up now (None while turning or leaning too far); ``still_s``: how
-    long the board has been still on ``up``; ``captured``: faces captured so
-    far, in order; ``message``: one line for the maker; ``done``: all six
-    captured.
+    ``asked``: the face to put up next, or :data:`TILTED` for a leaning pose
+    (None once all are captured); ``up``: the face up now, or :data:`TILTED`
+    for a new lean (None while turning, leaning too little, or too near a pose
+    captured); ``still_s``: how long the board has been still on ``up``;
+    ``captured``: the poses captured so far, in order (faces, then "tilted 1",
+    "tilted 2", ...); ``total``: how many poses are asked in all;
+    ``message``: one line for the maker; ``done``: all captured.
     """
 
     asked: str | None
@@ -111,6 +128,7 @@ class AccelStatus:
     captured: tuple[str, ...]
     message: str
     done: bool
+    total: int = len(FACES)
 
 
 @dataclass
@@ -121,11 +139,13 @@ class _Hold:
     since: float = 0.0  # device time the face came up
     acc: deque[tuple[float, float, float]] = field(default_factory=deque)
     gyr: deque[tuple[float, float, float]] = field(default_factory=deque)
+    mag: deque[tuple[float, float, float] | None] = field(default_factory=deque)
     t: deque[float] = field(default_factory=deque)
 
     def clear(self) -> None:
         self.acc.clear()
         self.gyr.clear()
+        self.mag.clear()
         self.t.clear()
 
 
@@ -133,8 +153,10 @@ class AccelProcedure:
     """The six-pose procedure, streaming (module docstring). Feed raw samples; read :attr:`status`."""
 
     def __init__(self, params: AccelProcedureParams = AccelProcedureParams()) -> None:
-        if not (params.hold_s > 0.0 and params.moved_after_s >= 0.0 and params.max_gap_s > 0.0):
-            raise ValueError(f"AccelProcedureParams need a hold and a gap above 0 s: {params}")
+        if not (params.hold_s > 0.0 and params.moved_after_s >= 0.0 and params.max_gap_s > 0.0
+                and params.tilted >= 0):
+            raise ValueError(f"AccelProcedureParams need a hold and a gap above 0 s and no negative "
+                             f"count of leaning poses: {params}")
         self.params = params
         self._detector = RestDetector(params.still)
         self._hold = _Hold()
@@ -148,7 +170,9 @@ class AccelProcedure:
         self._turns: list[Turn] = []
         self._die: float | None = None  # the die's temperature at the latest sample (degC; None: not sent)
         self._pose_die: dict[str, float | None] = {}  # ... when each pose was captured
-        self._status = AccelStatus(FACES[0], None, 0.0, (), f"put {FACES[0]} up, flat on the table", False)
+        self._pose_mag: dict[str, Array] = {}  # the magnetometer's mean raw reading over each pose, uT
+        self._status = AccelStatus(FACES[0], None, 0.0, (), f"put {FACES[0]} up, flat on the table", False,
+                                   self.total)
 
     @property
     def status(self) -> AccelStatus:
@@ -157,11 +181,31 @@ class AccelProcedure:
 
     @property
     def captured(self) -> tuple[str, ...]:
-        """The faces captured so far, in order."""
+        """The poses captured so far, in order (faces, then leaning poses)."""
         return tuple(self._poses)
 
+    @property
+    def total(self) -> int:
+        """How many poses the procedure asks for: the six faces and the leaning poses."""
+        return len(FACES) + self.params.tilted
+
     def _asked(self) -> str | None:
-        return next((f for f in FACES if f not in self._poses), None)
+        face = next((f for f in FACES if f not in self._poses), None)
+        return face or (TILTED if len(self._poses) < self.total else None)
+
+    def _leaning(self, acc: tuple[float, float, float], tilt: float) -> tuple[str | None, float]:
+        """The pose of a board leaning ``tilt`` from the nearest face, when a leaning pose is asked:
+        the leaning pose captured within ``lean_apart`` of ``acc`` (the nearest), else :data:`TILTED`
+        when it leans ``lean_apart`` from every face, else None; and ``tilt``."""
+        if self._asked() != TILTED:
+            return None, tilt
+        g = _unit(np.array(acc, dtype=float))
+        leans = {key: math.acos(min(1.0, float(g @ _unit(pose.acc.mean(axis=0)))))
+                 for key, pose in self._poses.items() if key not in FACES}
+        nearest = min(leans, key=leans.__getitem__, default=None)
+        if nearest is not None and leans[nearest] < self.params.lean_apart:
+            return nearest, tilt
+        return (TILTED if tilt >= self.params.lean_apart else None), tilt
 
     def interrupted(self) -> None:
         """The link was lost (a pulled cable): the pose being held is forgotten, the captured kept.
@@ -175,10 +219,10 @@ class AccelProcedure:
         self._hold.face = None
         self._moved = ""
         asked = self._asked()
-        kept = f"{len(self._poses)} of 6 faces kept"
+        kept = f"{len(self._poses)} of {self.total} poses kept"
         self._status = AccelStatus(asked, None, 0.0, self.captured,
                                    f"the board was disconnected: the pose being held is forgotten, {kept}"
-                                   + (f"; put {asked} up" if asked else ""), asked is None)
+                                   + (f"; {self._ask(asked)}" if asked else ""), asked is None, self.total)
 
     def _restart(self) -> None:
         """Forget the stillness and the held samples (the face is kept)."""
@@ -194,7 +238,7 @@ class AccelProcedure:
         gap = math.inf if self._last_t is None else t - self._last_t
         self._last_t = t
         up, tilt = pose_label(acc)
-        face = up if tilt <= self.params.pose.max_tilt else None
+        face, apart = (up, tilt) if tilt <= self.params.pose.max_tilt else self._leaning(acc, tilt)
         if 0.0 < gap <= self.params.max_gap_s:
             self._detector.update(gyr, acc, gap)
         else:
@@ -208,13 +252,13 @@ class AccelProcedure:
         held = min(self._detector.still_for, t - self._hold.since) if face else 0.0
         if face is not None and face not in self._poses:
             if held > 0.0:
-                self._keep(t, acc, gyr)
+                self._keep(t, acc, gyr, sample.mag)
             else:
                 self._broken("the board moved", t)
             if held >= self.params.hold_s - 1e-9:
                 self._capture(face, t)
                 held = 0.0
-        self._status = self._describe(face, held, tilt)
+        self._status = self._describe(face, held, apart)
         return self._status
 
     def _follow_turn(self, t: float, gyr: tuple[float, float, float]) -> None:
@@ -225,16 +269,19 @@ class AccelProcedure:
             return
         self._since.append((t, gyr[0], gyr[1], gyr[2]))
 
-    def _keep(self, t: float, acc: tuple[float, float, float], gyr: tuple[float, float, float]) -> None:
+    def _keep(self, t: float, acc: tuple[float, float, float], gyr: tuple[float, float, float],
+              mag: tuple[float, float, float] | None) -> None:
         """Add a still sample to the hold, dropping those older than ``hold_s``."""
         h = self._hold
         h.t.append(t)
         h.acc.append(acc)
         h.gyr.append(gyr)
+        h.mag.append(mag)
         while h.t and h.t[0] < t - self.params.hold_s:
             h.t.popleft()
             h.acc.popleft()
             h.gyr.popleft()
+            h.mag.popleft()
 
     def _broken(self, what: str, t: float) -> None:
         """The hold under way ends without a capture: remember why (if it had lasted), start over at ``t``."""
@@ -252,8 +299,13 @@ class AccelProcedure:
         moved = window_motion(pose.gyr, pose.acc, self.params.pose.rest) \
             if len(h.t) >= self.params.pose.min_samples else f"too few samples ({len(h.t)})"
         if moved is None:
+            if face == TILTED:
+                face = f"{TILTED} {len(self._poses) - len(FACES) + 1}"
             self._poses[face] = pose
             self._pose_die[face] = self._die
+            fields = [m for m in h.mag if m is not None and all(math.isfinite(x) for x in m)]
+            if len(fields) == len(h.mag):  # the magnetometer read all along: its mean, for the alignment
+                self._pose_mag[face] = np.mean(np.array(fields, dtype=float), axis=0)
             self._moved, self._left = "", False
             rate, acc = pose.gyr.mean(axis=0), pose.acc.mean(axis=0)
             if self._linked and self._last_pose is not None and len(self._since) >= 2:
@@ -267,41 +319,57 @@ class AccelProcedure:
         h.clear()
         h.since = t
 
-    def _describe(self, face: str | None, held: float, tilt: float) -> AccelStatus:
-        """The status for the face up now, held still for ``held`` s."""
-        asked, hold = self._asked(), self.params.hold_s
+    def _ask(self, asked: str) -> str:
+        """The line asking for the pose ``asked``."""
+        if asked != TILTED:
+            return f"put {asked} up, flat on the table"
+        return (f"lean the board on an edge against something, about 45 deg, a new way "
+                f"(leaning pose {len(self._poses) - len(FACES) + 1} of {self.params.tilted})")
+
+    def _describe(self, face: str | None, held: float, apart: float) -> AccelStatus:
+        """The status for the pose ``face`` now (a face, :data:`TILTED` or None), held still for ``held`` s;
+        ``apart``: how far the board leans from the nearest face."""
+        asked, hold, total = self._asked(), self.params.hold_s, self.total
         captured = self.captured
         if asked is None:
-            return AccelStatus(None, face, 0.0, captured, "all six faces captured", True)
+            return AccelStatus(None, face, 0.0, captured, f"all {total} poses captured", True, total)
         if face is None:
-            lean = f" (it leans {tilt / DEG:.0f} deg from a face)" if tilt < 45.0 * DEG else ""
-            text = f"put {asked} up, flat on the table{lean}"
+            if asked == TILTED:
+                lean = f" (it leans {apart / DEG:.0f} deg from a face, {self.params.lean_apart / DEG:.0f} needed)"
+            else:
+                lean = f" (it leans {apart / DEG:.0f} deg from a face)" if apart < 45.0 * DEG else ""
+            text = f"{self._ask(asked)}{lean}"
         elif face in self._poses:
             if not self._left and face == captured[-1]:
-                text = f"captured {face}: now put {asked} up"
+                text = f"captured {face}: now {self._ask(asked)}"
             elif held >= self.params.moved_after_s:  # set down on it, not passing over it
-                text = f"{face} is already captured: put {asked} up"
+                text = f"{face} is already captured: {self._ask(asked)}"
             else:
-                text = f"put {asked} up, flat on the table"
+                text = self._ask(asked)
         else:
+            where = "leaning" if face == TILTED else f"{face} up"
             instead = "" if face == asked else f", in place of {asked}"
-            text = f"hold still: {held:.1f} s of {hold:.1f} ({face} up{instead})"
+            text = f"hold still: {held:.1f} s of {hold:.1f} ({where}{instead})"
             if self._moved and held >= self.params.moved_after_s:
                 self._moved = ""
             elif self._moved:
                 text = f"{self._moved}: {text}"
-        return AccelStatus(asked, face, held, captured, text, False)
+        return AccelStatus(asked, face, held, captured, text, False, total)
 
     def result(self) -> SixPoseResult:
-        """Offset and scale from the six captured poses (:func:`tracker.calibration.six_pose_calibration`).
+        """Offset, scale and (with three or more leaning poses) misalignment from the captured poses
+        (:func:`tracker.calibration.six_pose_calibration`).
 
-        Raises ValueError before all six faces are captured.
+        Raises ValueError before all the poses are captured.
         """
-        missing = [f for f in FACES if f not in self._poses]
+        leaning = self.total - len(FACES) - sum(key not in FACES for key in self._poses)
+        missing = [f for f in FACES if f not in self._poses] + ([f"{leaning} leaning"] if leaning else [])
         if missing:
-            raise ValueError(f"the accelerometer calibration is not finished: not all six faces captured "
-                             f"({', '.join(missing)} missing)")
-        return six_pose_calibration([self._poses[f] for f in FACES], params=self.params.pose)
+            raise ValueError(f"the accelerometer calibration is not finished: {len(self._poses)} of "
+                             f"{self.total} poses captured ({', '.join(missing)} missing)")
+        leaning = [pose for key, pose in self._poses.items() if key not in FACES]
+        return six_pose_calibration([self._poses[f] for f in FACES], leaning, misalignment=len(leaning) >= 3,
+                                    params=self.params.pose)
 
     def gyro_fit(self, result: SixPoseResult) -> SensitivityFit:
         """The gyroscope's sensitivities from the turns between the poses (:mod:`tracker.gyro_scale`),
@@ -325,7 +393,35 @@ class AccelProcedure:
         over its poses (0 when the board sent none: :class:`BoardCalibration`), the gyroscope's
         sensitivities from the turns (kept at 1 where their fit was refused: the fit says why)."""
         gyro = self.gyro_fit(result)
-        temps = [self._pose_die.get(f) for f in FACES]
+        temps = list(self._pose_die.values())
         ref = float(np.mean(temps)) if all(c is not None for c in temps) else 0.0
-        return replace(self.calibration_of(result, board_id), gyro_scale=np.diag(gyro.scale),
-                       acc_offset_ref_c=np.array(ref)), gyro
+        cal = replace(self.calibration_of(result, board_id), gyro_scale=gyro.matrix, acc_offset_ref_c=np.array(ref))
+        return replace(cal, pose_fields=self._pose_fields(cal)), gyro
+
+    def _pose_fields(self, cal: BoardCalibration) -> Array:
+        """The poses' rows of :attr:`tracker.calibration.BoardCalibration.pose_fields`: the magnetometer's mean
+        raw reading and gravity's calibrated direction, for each pose the magnetometer read all along."""
+        rows = np.zeros_like(cal.pose_fields)
+        for i, (face, mag) in enumerate(list(self._pose_mag.items())[:len(rows)]):
+            up = cal.apply_arrays(self._poses[face].acc.mean(axis=0), np.zeros(3)).acc
+            rows[i] = (*mag, *_unit(up), 1.0)
+        return rows
+
+
+def _largest_off_diagonal(matrix: Array) -> float:
+    return float(np.max(np.abs(matrix - np.diag(np.diag(matrix)))))
+
+
+def misalignment_text(matrix: Array) -> str:
+    """The accelerometer's misalignment (unit diagonal) in a few words: its largest off-diagonal entry."""
+    off = _largest_off_diagonal(matrix)
+    return f"misalignment up to {off * 100:.2f} %" if off else "misalignment not measured"
+
+
+def sensitivity_text(matrix: Array) -> str:
+    """The gyroscope's sensitivity matrix in a few words: its diagonal and its largest cross-axis term."""
+    if np.array_equal(matrix, np.eye(3)):
+        return "sensitivities not measured"
+    off = _largest_off_diagonal(matrix)
+    cross = f"cross-axis up to {off * 100:.2f} %" if off else "cross-axis not measured"
+    return f"sensitivities ({' '.join(f'{x:.4f}' for x in np.diag(matrix))}), {cross}"

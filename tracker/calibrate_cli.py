@@ -36,7 +36,7 @@ from typing import IO, TYPE_CHECKING, Callable, Generic, Iterator, Protocol, Seq
 import numpy as np
 
 from . import calibration as C
-from .accel_procedure import FACES, AccelProcedure, AccelStatus
+from .accel_procedure import FACES, TILTED, AccelProcedure, AccelStatus, misalignment_text, sensitivity_text
 from .link import Link
 from .mag_procedure import MagProcedure, MagStatus
 from .magfit import MagFitError
@@ -60,14 +60,15 @@ SETTLED_S = 0.5  # a board this long on a face captured already was laid there, 
 # Which way each face is for a maker holding the board (the MPU-9250's axes, printed on breakouts).
 FACE_HINTS = {"+z": "chip side up", "-z": "chip side down", "+x": "the x arrow pointing up",
               "-x": "the x arrow pointing down", "+y": "the y arrow pointing up",
-              "-y": "the y arrow pointing down"}
+              "-y": "the y arrow pointing down", TILTED: "on an edge against a book, about 45 deg, a new way"}
 # How `calibrate show` writes a procedure's figures (ProcedureRecord.figures), by name.
 FIGURES = {"residual_m_s2": "residual {:.4f} m/s^2", "residual_ut": "residual {:.2f} uT",
            "strength_ut": "field {:.1f} uT", "dip_deg": "dip {:.1f} deg", "rise_c": "warmed {:.2f} degC",
            "slope_dps_per_c": "slope {:.3f} deg/s per degC", "residual_dps": "residual {:.3f} deg/s",
            "acc_slope_mg_per_c": "accelerometer {:.3f} mg per degC"}
 # The figures --json reports against the simulated board's truth (tracker.maker_sim.calibration_errors).
-TRUTH_ERRORS = {"accel": ("acc_offset_error_mg", "acc_scale_error_pct", "gyro_scale_error_pct"),
+TRUTH_ERRORS = {"accel": ("acc_offset_error_mg", "acc_scale_error_pct", "acc_skew_error_pct", "gyro_scale_error_pct",
+                          "gyro_matrix_error_pct"),
                 "mag": ("mag_hard_iron_error_ut", "mag_soft_iron_error_pct"),
                 "thermal": ("gyro_thermal_error_dps_per_c", "acc_thermal_error_mg_per_c")}
 
@@ -208,7 +209,7 @@ def run_procedure(link: Link, procedure: Procedure[Status], steps: Steps[Status]
 
 
 def _face(face: str) -> str:
-    return f"{face} up ({FACE_HINTS[face]})"
+    return "a leaning pose (" + FACE_HINTS[face] + ")" if face == TILTED else f"{face} up ({FACE_HINTS[face]})"
 
 
 @dataclass
@@ -226,12 +227,15 @@ class AccelNarrator:
 
     def __call__(self, before: AccelStatus | None, st: AccelStatus, term: Terminal) -> None:
         if before is None:
-            term.say("six poses: lay the board flat, each face up in turn; a pose is captured once the board "
-                     f"has lain still on it for a moment. Put {_face(st.asked or FACES[0])}")
+            leaning = st.total - len(FACES)
+            term.say("lay the board flat, each face up in turn"
+                     + (f", then lean it on an edge {leaning} times" if leaning else "")
+                     + "; a pose is captured once the board has lain still on it for a moment. "
+                     + f"Put {_face(st.asked or FACES[0])}")
             return
         for face in st.captured[len(before.captured):]:
-            term.say(f"captured {face} ({len(st.captured)} of 6)"
-                     + (f"; now put {_face(st.asked)}" if st.asked else ""))
+            term.say(f"captured {face} ({len(st.captured)} of {st.total})"
+                     + (f"; now {'make' if st.asked == TILTED else 'put'} {_face(st.asked)}" if st.asked else ""))
         if "moved" in st.message and "moved" not in before.message:
             term.say(st.message)
         again = st.up if st.up is not None and "already captured" in st.message else None
@@ -244,6 +248,9 @@ class AccelNarrator:
 
 def live_accel(st: AccelStatus) -> str:
     marks = " ".join(f if f in st.captured else "--" for f in FACES)
+    leaning = st.total - len(FACES)
+    if leaning:
+        marks += f" lean {len(st.captured) - sum(f in st.captured for f in FACES)}/{leaning}"
     return f"[{marks}]  {st.message}"
 
 
@@ -253,17 +260,19 @@ def finish_accel(board_id: str, procedure: AccelProcedure, status: AccelStatus,
     not all six faces were captured in time or their fit failed."""
     if not status.done:
         missing = [f for f in FACES if f not in status.captured]
-        raise CalibrationRefused(f"only {6 - len(missing)} of 6 faces captured in {seconds:g} s "
-                                 f"({', '.join(missing)} still to do); nothing was saved")
+        leaning = status.total - len(FACES) - (len(status.captured) - (len(FACES) - len(missing)))
+        todo = missing + ([f"{leaning} leaning pose{'s' if leaning > 1 else ''}"] if leaning else [])
+        raise CalibrationRefused(f"only {len(status.captured)} of {status.total} poses captured in {seconds:g} s "
+                                 f"({', '.join(todo)} still to do); nothing was saved")
     result = procedure.result()
     if not result.ok:
         raise CalibrationRefused(f"{result.message}; nothing was saved")
     fitted, gyro = procedure.calibration(result, board_id)
     values = {"faces": list(status.captured), "acc_offset": fitted.acc_offset.tolist(),
               "acc_scale": fitted.acc_scale.tolist(), "acc_misalignment": fitted.acc_misalignment.tolist(),
-              "residual_m_s2": result.residual, "gyro_scale": gyro.scale.tolist(), "gyro_turns": gyro.turns,
+              "residual_m_s2": result.residual, "gyro_scale": gyro.matrix.tolist(), "gyro_turns": gyro.turns,
               "gyro_residual_deg": gyro.residual_deg}
-    gyro_line = (f"gyroscope: sensitivities ({_numbers(gyro.scale, '{:.4f}')}) from {gyro.turns} turns between the "
+    gyro_line = (f"gyroscope: {sensitivity_text(gyro.matrix)} from {gyro.turns} turns between the "
                  f"poses, residual {gyro.residual_deg:.3f} deg") if gyro.ok else \
         f"gyroscope: sensitivities not measured ({gyro.problem}); kept at 1"
     return fitted, C.ProcedureRecord.now("accel", {"residual_m_s2": result.residual}), values, \
@@ -306,13 +315,15 @@ def finish_mag(board_id: str, procedure: MagProcedure, status: MagStatus,
         late = "" if status.ready or status.problem else f"after {seconds:g} s, "
         raise CalibrationRefused(f"{late}{e}; nothing was saved") from None
     fitted = C.BoardCalibration(board_id, mag_hard_iron=np.array(result.fit.offset),
-                                mag_soft_iron=np.array(result.fit.soft_iron))
+                                mag_soft_iron=result.soft_iron)
     figures = {"residual_ut": result.residual_ut, "strength_ut": result.strength_ut, "dip_deg": result.dip_deg}
+    aligned = result.alignment
     values = {"coverage": status.coverage, "mag_hard_iron": fitted.mag_hard_iron.tolist(),
-              "mag_soft_iron": fitted.mag_soft_iron.tolist(), **figures}
+              "mag_soft_iron": fitted.mag_soft_iron.tolist(), **figures,
+              "alignment_deg": aligned.turn_deg, "alignment_problem": aligned.problem}
     line = (f"magnetometer: hard iron ({_numbers(fitted.mag_hard_iron, '{:+.1f}')}) uT, soft iron rows "
             f"{_rows(fitted.mag_soft_iron)}; residual {result.residual_ut:.2f} uT, field "
-            f"{result.strength_ut:.1f} uT, dip {result.dip_deg:.1f} deg")
+            f"{result.strength_ut:.1f} uT, dip {result.dip_deg:.1f} deg; {aligned.describe()}")
     return fitted, C.ProcedureRecord.now("mag", figures), values, [line]
 
 
@@ -511,11 +522,9 @@ def show_board(cal: C.BoardCalibration) -> list[str]:
         lines.append(f"  {title:13s}  {record.when if record else 'date unknown'}"
                      + (f"  {figures}" if figures else ""))
         if name == "accel":
-            gyro = np.diag(cal.gyro_scale)
-            measured = f"({_numbers(gyro, '{:.4f}')})" if not np.array_equal(cal.gyro_scale, np.eye(3)) \
-                else "not measured"
             lines.append(f"  {'':13s}  offset ({_numbers(cal.acc_offset, '{:+.4f}')}) m/s^2, "
-                         f"scale ({_numbers(cal.acc_scale, '{:.5f}')}); gyroscope sensitivities {measured}")
+                         f"scale ({_numbers(cal.acc_scale, '{:.5f}')}), {misalignment_text(cal.acc_misalignment)}; "
+                         f"gyroscope {sensitivity_text(cal.gyro_scale)}")
         elif name == "thermal" and not (cal.gyro_thermal.any() or cal.acc_thermal.any()):
             lines.append(f"  {'':13s}  a negligible warm-up: no slope to keep")
         elif name == "thermal":

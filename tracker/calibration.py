@@ -831,6 +831,12 @@ def six_pose_calibration(poses: Sequence[Pose], extra: Sequence[Pose] = (),
     rotation that the norm cannot see: the calibrated z axis follows the sensor's z
     axis and y stays in the sensor's y-z plane): nine unknowns, so ``extra`` must
     add at least three still poses in other orientations (tilted 45 deg, say).
+    The triangular A is then turned to its symmetric polar factor P (A = Q P, Q a
+    rotation: N. J. Higham, "Computing the polar decomposition - with applications",
+    SIAM J. Sci. Stat. Comput. 7(4), 1986), the same norms in the frame nearest the
+    sensor's axes: the triangular frame leans by as much as the skew, the symmetric one
+    only by the skew's antisymmetric part, so a gyroscope calibrated in it
+    (:mod:`tracker.gyro_scale`) keeps cross-axis terms near the data sheet's.
     A = misalignment @ diag(scale). Bad pose sets are refused with the reason: a
     pose missing, not still, leaning too far, or two poses the same.
     """
@@ -849,6 +855,9 @@ def six_pose_calibration(poses: Sequence[Pose], extra: Sequence[Pose] = (),
     if np.linalg.matrix_rank(jac) < jac.shape[1]:
         return _failed("the extra poses do not pin down the misalignment; "
                        "tilt the board about different axes for them")
+    if misalignment:
+        u, sigma, vt = np.linalg.svd(A)
+        A = (vt.T * sigma) @ vt  # the polar factor P = V S V^T of A = U S V^T
     scale = np.diag(A).copy()
     # Six poses fix six unknowns exactly, so the residual is judged on every sample the
     # poses held: the sensor's noise when the model fits and each pose was still.
@@ -870,13 +879,14 @@ _BOARD_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,79}")
 # The maker's procedures and the fields each fills (``armtracker calibrate accel|mag|thermal``, the game's
 # Board setup); saving one keeps the other's fields. In the order they are shown.
 PROCEDURES: dict[str, tuple[str, ...]] = {
-    "accel": ("acc_offset", "acc_scale", "acc_misalignment", "gyro_scale", "acc_offset_ref_c"),
+    "accel": ("acc_offset", "acc_scale", "acc_misalignment", "gyro_scale", "acc_offset_ref_c", "pose_fields"),
     "mag": ("mag_hard_iron", "mag_soft_iron"),
     "thermal": ("gyro_thermal", "gyro_thermal_ref_c", "acc_thermal"),
 }
 PROCEDURE_TITLES: dict[str, str] = {"accel": "accelerometer", "mag": "magnetometer", "thermal": "warm-up drift"}
 # Fields older files lack: they take their defaults.
-_ADDED_LATER = ("gyro_thermal", "gyro_thermal_ref_c", "gyro_scale", "acc_thermal", "acc_offset_ref_c")
+_ADDED_LATER = ("gyro_thermal", "gyro_thermal_ref_c", "gyro_scale", "acc_thermal", "acc_offset_ref_c", "pose_fields")
+POSE_ROWS = 16  # pose_fields' rows: the accelerometer procedure's poses it can keep (10 asked by default)
 _FIGURE_NAME = re.compile(r"[a-z][a-z0-9_]{0,39}")
 MAX_DAMAGED_COPIES = 20  # <name>.damaged, <name>.damaged.2, ... (then a save is refused)
 
@@ -1042,6 +1052,10 @@ class BoardCalibration:
     acc_thermal: Array = field(default_factory=lambda: np.zeros(3))  # m/s^2 per degC: the zero-g level's slope
     acc_offset_ref_c: Array = field(default_factory=lambda: np.zeros(()))  # degC the offsets were measured
     # at (the six-pose procedure's poses); 0: not measured (a firmware without the TEMP frame)
+    pose_fields: Array = field(default_factory=lambda: np.zeros((POSE_ROWS, 7)))  # the accelerometer procedure's
+    # still poses, a row each: the magnetometer's mean raw reading (uT), gravity's calibrated direction, and 1
+    # (0 in rows not used); the magnetometer's procedure turns its frame onto the accelerometer's from them
+    # (tracker.mag_alignment). Not a correction: apply and apply_arrays leave it alone.
     procedures: tuple[ProcedureRecord, ...] = ()
     _plain: _PlainCalibration = field(init=False, repr=False)  # the arrays as floats, for apply
 

@@ -18,7 +18,10 @@ reaction time of 0.4-0.8 s (a choice reaction to a prompt: A. T. Welford,
 and reading the line), takes 1.5 s with the minimum-jerk profile of a
 reaching hand (T. Flash and N. Hogan, "The coordination of arm movements",
 J. Neurosci. 5 (1985) 1688-1703), and ends on the face with a random
-heading and a lean of up to 2 deg (the table, the board's components). The
+heading and a lean of up to 2 deg (the table, the board's components). A
+leaning pose props the board on an edge against a book, 45 deg between two
+faces (:data:`EDGE_AXES`, about each axis in turn), within
+:data:`PROP_DEG` (a book's edge and a board's width are not exact). The
 board turns about its own centre: it does not wander through the room's
 field disturbance (:class:`tracker.sim.MagneticErrors`), which near a fixed
 point is just part of the local field.
@@ -55,7 +58,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from . import quat as Q
-from .accel_procedure import AccelProcedure, AccelStatus
+from .accel_procedure import FACES, TILTED, AccelProcedure, AccelStatus
 from .board import BoardSettings, acc_lsb, counts, gyr_lsb
 from .calibration import MG, BoardCalibration, SixPoseResult
 from .mag_procedure import MagProcedure, MagResult, MagStatus
@@ -85,6 +88,9 @@ BLOCK_S = 3.0  # simulated at once: a block's own cost is about that of 100 samp
 BLOCK_MIN = 600  # samples a block holds at least (at a low rate, 3 s would be mostly the block's own cost)
 FACE_AXES = {"+x": (1.0, 0.0, 0.0), "-x": (-1.0, 0.0, 0.0), "+y": (0.0, 1.0, 0.0),
              "-y": (0.0, -1.0, 0.0), "+z": (0.0, 0.0, 1.0), "-z": (0.0, 0.0, -1.0)}
+# The leaning poses: the board on an edge against a book, 45 deg between two faces, about each axis in turn.
+EDGE_AXES = ((1.0, 0.0, 1.0), (0.0, 1.0, 1.0), (1.0, 1.0, 0.0), (-1.0, 0.0, 1.0))
+PROP_DEG = 8.0  # a board propped against a book leans up to this far from the edge's 45 deg
 
 
 def extreme_errors() -> SensorErrors:
@@ -312,15 +318,17 @@ class SimulatedMaker:
         return self._root(np.array([t]))[0]
 
     def _face_q(self, face: str, t: float) -> Array:
-        """The board tipped over from where the plan has it at ``t`` onto ``face``: the least turn
-        that brings that axis up, then a new heading (within +-20 deg) and a small lean."""
+        """The board tipped over from where the plan has it at ``t`` onto ``face`` (a face, or "tilted k":
+        the k-th of :data:`EDGE_AXES`): the least turn that brings that axis up, then a new heading
+        (within +-20 deg) and a small lean (:data:`PROP_DEG` on an edge, :data:`LEAN_DEG` on a face)."""
         q = self._where(t)
-        axis_now = Q.rotate(q, FACE_AXES[face])
-        tip = Q.from_two_vectors(axis_now, (0.0, 0.0, 1.0))
+        tilted = face.startswith(TILTED)
+        axis = np.array(EDGE_AXES[(int(face.split()[-1]) - 1) % len(EDGE_AXES)] if tilted else FACE_AXES[face])
+        tip = Q.from_two_vectors(Q.rotate(q, axis / np.linalg.norm(axis)), (0.0, 0.0, 1.0))
         heading = Q.from_axis_angle((0.0, 0.0, 1.0), math.radians(self._rng.uniform(-20.0, 20.0)))
         azimuth = self._rng.uniform(0.0, 2.0 * np.pi)
         lean = Q.from_axis_angle((math.cos(azimuth), math.sin(azimuth), 0.0),
-                                 math.radians(self._rng.uniform(0.0, LEAN_DEG)))
+                                 math.radians(self._rng.uniform(0.0, PROP_DEG if tilted else LEAN_DEG)))
         return Q.multiply(lean, Q.multiply(heading, Q.multiply(tip, q)))
 
     def _move(self, face: str | None) -> None:
@@ -357,8 +365,11 @@ class SimulatedMaker:
             back = self._plan[-1].t0 + TURN_S + 0.3
             self._replan(_Move(back, back + TURN_S, self._where(back), self._face_q(status.up, back), status.up))
             self._wait_until = back + TURN_S + 2.0  # and reads what the procedure says about it
-        elif current.face != status.asked:
-            self._move(status.asked)
+        else:
+            target = status.asked if status.asked != TILTED \
+                else f"{TILTED} {len(status.captured) - len(FACES) + 1}"
+            if current.face != target:
+                self._move(target)
 
     def _busy(self) -> bool:
         """Whether a planned move has not ended yet (the maker finishes what it is doing)."""
@@ -370,13 +381,14 @@ class SimulatedMaker:
     def true_calibration(self) -> BoardCalibration:
         """The board's true errors in :class:`tracker.calibration.BoardCalibration`'s convention.
 
-        The simulator measures acc = s a + o (per axis) and mag = D (S R^T h + b) + o_m
-        (:mod:`tracker.sim`), so acc_offset = o, acc_scale = 1 / s, mag_hard_iron =
+        The simulator measures acc = (diag(s) + C) a + o and mag = D (S R^T h + b) + o_m
+        (:mod:`tracker.sim`), so acc_offset = o, and with K = (diag(s) + C)^-1 acc_scale = K's
+        diagonal and acc_misalignment = K diag(1 / acc_scale) (unit diagonal); mag_hard_iron =
         D b + o_m, and with M = D S the soft iron is the symmetric W with W^T W
         proportional to (M M^T)^-1, normalised to det W = 1 as the fit is
         (:mod:`tracker.magfit`: only W up to a scale and a rotation is observable):
         W = |det M|^(1/3) (M M^T)^(-1/2). gyro_bias: the offset at power-on; gyro_scale: the
-        inverse of the gyroscope's drawn sensitivities. gyro_thermal and acc_thermal: this
+        inverse of the gyroscope's drawn sensitivity matrix diag(s) + C. gyro_thermal and acc_thermal: this
         power-on's warm-ups over the die's rise (:func:`tracker.sim.die_temperature`), about the
         temperature at power-on (acc_offset, gyro_bias: the offsets there).
         """
@@ -389,11 +401,13 @@ class SimulatedMaker:
         rise = die_rise_c(gyr)
         slope, acc_slope = ((data.warmup["gyr"][0] / rise, data.warmup["acc"][0] / rise) if gyr.warmup
                             else (np.zeros(3), np.zeros(3)))
+        acc = np.linalg.inv(np.diag(data.scale["acc"][0]) + data.cross["acc"][0])
         return BoardCalibration(gyro_bias=data.offset["gyr"][0], acc_offset=data.offset["acc"][0],
-                                acc_scale=1.0 / data.scale["acc"][0],
+                                acc_scale=np.diag(acc).copy(), acc_misalignment=acc / np.diag(acc)[None, :],
                                 mag_hard_iron=d * data.hard_iron[0] + o_m, mag_soft_iron=0.5 * (w + w.T),
                                 gyro_thermal=slope, gyro_thermal_ref_c=np.array(data.die_c[0]),
-                                gyro_scale=np.diag(1.0 / data.scale["gyr"][0]), acc_thermal=acc_slope,
+                                gyro_scale=np.linalg.inv(np.diag(data.scale["gyr"][0]) + data.cross["gyr"][0]),
+                                acc_thermal=acc_slope,
                                 acc_offset_ref_c=np.array(data.die_c[0]))
 
 
@@ -403,24 +417,47 @@ def calibration_errors(fitted: BoardCalibration, truth: BoardCalibration) -> dic
     ``acc_offset_error_mg``: the worst axis's offset error in mg (1 g = 9.80665 m/s^2);
     ``acc_scale_error_pct``: the worst axis's fitted scale over the true, less one, in %;
     ``mag_hard_iron_error_ut``: the length of the hard iron's error; ``mag_soft_iron_error_pct``:
-    the largest element of the soft iron's error (the matrices are near the identity), in %;
+    the largest element of the soft iron's error (the matrices are near the identity), in %, the
+    truth's turned into the fitted accelerometer's frame (the rotation Q of the polar decomposition
+    F T^-1 = Q P, below: the magnetometer is aligned to that frame, :mod:`tracker.mag_alignment`);
     ``gyro_thermal_error_dps_per_c``: the length of the warm-up slope's error, deg/s per degC;
     ``acc_thermal_error_mg_per_c``: the length of the zero-g level's slope's error, mg per degC. The
     offsets are compared at the temperature the fitted ones were measured at (the truth's moved
     there along its slope) when the fitted calibration knows it;
-    ``gyro_scale_error_pct``: the worst axis's fitted sensitivity over the true, less one, in %.
+    ``gyro_scale_error_pct``: the worst axis's fitted sensitivity over the true, less one, in %;
+    ``acc_skew_error_pct``: with F the fitted accelerometer's matrix (acc_misalignment diag(acc_scale))
+    and T the true one, the largest entry of the symmetric part of F T^-1 - I, in % (what no rotation
+    of the frame explains: the scale and the skew left); ``gyro_matrix_error_pct``: the largest entry of
+    the gyroscope's fitted matrix times the true one's inverse less F T^-1, in % (the gyroscope against the
+    accelerometer's calibrated frame, the frame the fusion works in).
     """
+    acc_left = _acc_matrix(fitted) @ np.linalg.inv(_acc_matrix(truth))
     true_offset = truth.acc_offset + (truth.acc_thermal * (fitted.acc_offset_ref_c - truth.acc_offset_ref_c)
                                       if fitted.acc_offset_temperature_known else 0.0)
     return {
         "acc_offset_error_mg": float(np.max(np.abs(fitted.acc_offset - true_offset))) / MG,
         "acc_scale_error_pct": float(np.max(np.abs(fitted.acc_scale / truth.acc_scale - 1.0))) * 100.0,
         "mag_hard_iron_error_ut": float(np.linalg.norm(fitted.mag_hard_iron - truth.mag_hard_iron)),
-        "mag_soft_iron_error_pct": float(np.max(np.abs(fitted.mag_soft_iron - truth.mag_soft_iron))) * 100.0,
+        "mag_soft_iron_error_pct": float(np.max(np.abs(fitted.mag_soft_iron - _rotation(acc_left) @ truth.mag_soft_iron)))
+        * 100.0,
         "gyro_thermal_error_dps_per_c": math.degrees(float(np.linalg.norm(fitted.gyro_thermal - truth.gyro_thermal))),
         "acc_thermal_error_mg_per_c": float(np.linalg.norm(fitted.acc_thermal - truth.acc_thermal)) / MG,
         "gyro_scale_error_pct": float(np.max(np.abs(np.diag(fitted.gyro_scale) / np.diag(truth.gyro_scale) - 1.0))) * 100.0,
+        "acc_skew_error_pct": float(np.max(np.abs(0.5 * (acc_left + acc_left.T) - np.eye(3)))) * 100.0,
+        "gyro_matrix_error_pct": float(np.max(np.abs(fitted.gyro_scale @ np.linalg.inv(truth.gyro_scale)
+                                                     - acc_left))) * 100.0,
     }
+
+
+def _rotation(m: Array) -> Array:
+    """The rotation Q of the polar decomposition m = Q P (U V^T of m's singular value decomposition)."""
+    u, _, vt = np.linalg.svd(m)
+    return u @ vt
+
+
+def _acc_matrix(cal: BoardCalibration) -> Array:
+    """The accelerometer's calibration as one matrix: acc_misalignment diag(acc_scale)."""
+    return cal.acc_misalignment * cal.acc_scale[None, :]
 
 
 @dataclass
@@ -510,11 +547,10 @@ def calibrate(maker: SimulatedMaker, thermal: bool = True) -> tuple[BoardCalibra
         if not gyro.ok:
             problems.append(f"the gyroscope's sensitivities were not measured: {gyro.problem}")
     else:
-        problems.append(f"six-pose calibration failed: {accel.error}")
+        problems.append(f"accelerometer calibration failed: {accel.error}")
     mag = run_maker(MagProcedure(accel=cal), maker)
     if isinstance(mag.result, MagResult) and not mag.error:
-        fit = mag.result.fit
-        cal = replace(cal, mag_hard_iron=np.array(fit.offset), mag_soft_iron=np.array(fit.soft_iron))
+        cal = replace(cal, mag_hard_iron=np.array(mag.result.fit.offset), mag_soft_iron=mag.result.soft_iron)
     else:
         problems.append(f"magnetometer calibration failed: {mag.error}")
     if thermal:

@@ -80,6 +80,7 @@ _WARMUP_KEY = 3  # a kind's warm-up direction: spawn key (kind, 3), beside (kind
 _MAG_KEY = 4  # the board's hard and soft iron, and the room's field
 _FLEX_KEY = 5  # the flex sensor's nonlinearity
 _POWER_ON_KEY = 6  # a kind's warm-up direction at one power-on: spawn key (kind, 6, power_on)
+_CROSS_KEY = 7  # a kind's cross-axis sensitivities: spawn key (kind, 7)
 _MAG_MODES = 4  # spatial modes of the room's field disturbance
 
 # MPU-9250 product specification (PS-MPU-9250A-01 rev. 1.1), sec. 3.1-3.2; AK8963 in 16-bit mode.
@@ -88,6 +89,7 @@ GYR_OFFSET_MAX = math.radians(5.0)  # rad/s, initial zero-rate offset tolerance
 ACC_NOISE_DENSITY = 300e-6 * STANDARD_GRAVITY  # m/s^2/sqrt(Hz)
 ACC_OFFSET_MAX = 60e-3 * STANDARD_GRAVITY  # m/s^2, zero-g initial tolerance (x, y)
 SCALE_TOLERANCE = 0.03  # initial sensitivity tolerance, gyroscope and accelerometer
+CROSS_AXIS_TOLERANCE = 0.02  # cross-axis sensitivity, gyroscope and accelerometer (tables 1 and 2)
 MAG_FULL_SCALE_UT = 4912.0
 # The AK8963's data sheet (MS1356-E-02) gives no noise figure. Consumer 3-axis compasses of its
 # class do: the Bosch BMM150 data sheet (BST-BMM150-DS001, electrical specification) gives an
@@ -250,6 +252,7 @@ class ErrorModel:
     offset_max: float = 0.0  # constant offset, drawn in [-offset_max, offset_max]
     drift: float = 0.0  # random walk per sqrt(s): after T seconds std drift * sqrt(T)
     scale_max: float = 0.0  # scale-factor error (fraction), drawn in [-scale_max, scale_max]
+    cross_axis_max: float = 0.0  # cross-axis sensitivity (fraction), each of C's off-diagonals within +-this
     resolution: float = 0.0  # one least significant bit; 0 = continuous
     full_scale: float = math.inf  # readings saturate at +-full_scale
     warmup: float = 0.0  # the offset's change over the first WARMUP_SPAN_S after power-on (sample 0)
@@ -365,7 +368,8 @@ def mpu9250(noise: bool = True, offset: bool = True, scale: bool = False,
             acc_fs_g: int = 16, gyr_fs_dps: int = 2000) -> SensorErrors:
     """MPU-9250 data-sheet errors; the finger-tracking paper (sec. 3) ran noise only, offset only, and both.
 
-    The finger-tracking paper assumed calibrated scale factors, hence ``scale`` off by default.
+    The finger-tracking paper assumed calibrated scale factors, hence ``scale`` off by default;
+    ``scale`` brings the cross-axis sensitivities (:class:`ErrorModel`) with the scale factors.
     Quantisation and saturation are those of 16-bit counts at the full scales
     (the virtual board's defaults). The magnetometer has white noise
     (:data:`MAG_NOISE_DENSITY`), is quantised (0.15 uT) and saturated; the
@@ -374,11 +378,11 @@ def mpu9250(noise: bool = True, offset: bool = True, scale: bool = False,
     gyr_fs, acc_fs = math.radians(gyr_fs_dps), acc_fs_g * STANDARD_GRAVITY
     return SensorErrors(
         gyr=ErrorModel(noise_density=GYR_NOISE_DENSITY * noise, offset_max=GYR_OFFSET_MAX * offset,
-                       scale_max=SCALE_TOLERANCE * scale, resolution=gyr_fs / 32768,
-                       full_scale=gyr_fs),
+                       scale_max=SCALE_TOLERANCE * scale, cross_axis_max=CROSS_AXIS_TOLERANCE * scale,
+                       resolution=gyr_fs / 32768, full_scale=gyr_fs),
         acc=ErrorModel(noise_density=ACC_NOISE_DENSITY * noise, offset_max=ACC_OFFSET_MAX * offset,
-                       scale_max=SCALE_TOLERANCE * scale, resolution=acc_fs / 32768,
-                       full_scale=acc_fs),
+                       scale_max=SCALE_TOLERANCE * scale, cross_axis_max=CROSS_AXIS_TOLERANCE * scale,
+                       resolution=acc_fs / 32768, full_scale=acc_fs),
         mag=ErrorModel(noise_density=MAG_NOISE_DENSITY * noise, resolution=MAG_UT_PER_COUNT,
                        full_scale=MAG_FULL_SCALE_UT, rate_hz=MAG_RATE_HZ),
     )
@@ -466,6 +470,7 @@ class SimData:
     truth: Truth
     offset: dict[str, Array]  # the constant offsets drawn, by kind ("gyr", "acc", "mag", "flex")
     scale: dict[str, Array]  # the scale factors 1 + error drawn, by kind
+    cross: dict[str, Array]  # the cross-axis matrices C drawn, by kind (ErrorModel; (S, 3, 3), zero diagonal)
     warmup: dict[str, Array]  # the offsets' change after WARMUP_SPAN_S (warmup * u), by kind
     hard_iron: Array  # (S, 3) uT, the board's hard iron drawn
     soft_iron: Array  # (S, 3, 3) the soft-iron matrices I + E drawn
@@ -499,6 +504,16 @@ def _directions(rng: np.random.Generator, shape: tuple[int, ...]) -> Array:
     return np.sign(v)
 
 
+def _cross_axis(bound: float, shape: tuple[int, ...], rng: np.random.Generator) -> Array:
+    """The cross-axis matrices C (:class:`ErrorModel`) of sensors of ``shape`` (..., 3): off-diagonals
+    drawn within +-``bound``, the diagonal 0; zeros(shape) for a sensor with no three axes."""
+    if not (shape and shape[-1] == 3):
+        return np.zeros(shape)
+    c = rng.uniform(-bound, bound, (*shape, 3))
+    c[..., [0, 1, 2], [0, 1, 2]] = 0.0
+    return c
+
+
 def _matvec(m: Array, v: Array) -> Array:
     """m v over the last axes, summed term by term (every sample rounded alike)."""
     terms = m * v[..., None, :]
@@ -514,6 +529,7 @@ class _ErrorProcess:
         rng = _rng(seed, kind, 0)
         self.offset = rng.uniform(-model.offset_max, model.offset_max, shape)
         self.scale = 1.0 + rng.uniform(-model.scale_max, model.scale_max, shape)
+        self.cross = _cross_axis(model.cross_axis_max, shape, _rng(seed, kind, _CROSS_KEY))
         self.warmup = np.zeros(shape)
         if model.warmup:
             if not model.warmup_tau_s > 0:
@@ -548,6 +564,8 @@ class _ErrorProcess:
         """The measurement of ``truth`` (k, *shape) taken as samples number ``k``."""
         m = self.model
         x = self.scale * truth + self.offset
+        if m.cross_axis_max:
+            x = x + _matvec(self.cross, truth)
         if m.warmup:
             x = x + self._warmup_curve(k).reshape((-1,) + (1,) * len(self.shape)) * self.warmup
         if self._white_std or self._step_std:
@@ -894,7 +912,8 @@ class SampleStream:
         return SimData(truth.t, p["gyr"].measure(gyr, k), p["acc"].measure(acc, k),
                        self._mag(k, mag.field(truth)), circuit.adc(p["flex"].measure(volts, k)),
                        truth, {kind: q.offset for kind, q in p.items()},
-                       {kind: q.scale for kind, q in p.items()}, {kind: q.warmup for kind, q in p.items()},
+                       {kind: q.scale for kind, q in p.items()}, {kind: q.cross for kind, q in p.items()},
+                       {kind: q.warmup for kind, q in p.items()},
                        mag.hard_iron, mag.soft_iron, flex, die_temperature(self.sim.errors.gyr, truth.t))
 
 

@@ -114,8 +114,8 @@ class Tracking:
         acc = np.array([s.acc for s in raw])
         known = all(s.temp_counts is not None for s in raw)
         die = np.array([s.die_c for s in raw], dtype=float) if known else None
-        gyr = self.board.apply_arrays(acc, [s.gyr for s in raw], None, die).gyr
-        result = startup_bias(t, gyr, acc)
+        calibrated = self.board.apply_arrays(acc, [s.gyr for s in raw], None, die)
+        result = startup_bias(t, calibrated.gyr, calibrated.acc)  # both in the calibrated frame
         if isinstance(self.filter, DefaultFilter):  # the filter that estimates the bias keeps the best known
             bias = as_vec(result.bias) if result.ok else self.filter.get_state().bias
             self.reset()

@@ -22,6 +22,7 @@ import numpy as np
 import pygame
 
 from tracker import protocol as P
+from tracker.accel_procedure import FACES, TILTED
 from tracker.calibration import BoardCalibration, board_id_of, load_for_hello
 from tracker.link import LinkSettings, find_boards
 from tracker.maker_sim import SimulatedMaker, cold
@@ -817,30 +818,36 @@ class BoardSetupScreen:
         r.draw_setup_text(surface, text, setup.message(), [line for line in lines if line], setup.keys(), warn)
 
     def draw_accel(self, surface: pygame.Surface, rect: pygame.Rect, setup: BoardSetup) -> None:
-        """The face to put up next (on a turning board), the six faces, the stillness."""
+        """The pose to make next (on a turning board), the six faces, the stillness, the poses captured."""
         r = self.game.renderer
         status = setup.accel_status
         half = (rect.width - 20) // 2
         target = pygame.Rect(rect.left, rect.top, half, rect.height)
         asked = status.asked
-        title = f"next: put {asked} up" if asked else "all six faces captured"
+        leaning = len(status.captured) - sum(f in status.captured for f in FACES)
+        face = asked if asked in FACES else None
+        title = f"next: put {asked} up" if face else \
+            f"next: lean it on an edge ({leaning + 1} of {status.total - len(FACES)})" if asked else \
+            "all poses captured"
         up = np.zeros(3)
-        if asked:
-            up["xyz".index(asked[1])] = 1.0 if asked[0] == "+" else -1.0
+        if face:
+            up["xyz".index(face[1])] = 1.0 if face[0] == "+" else -1.0
         else:
-            up[2] = 1.0
-        r.draw_board(surface, target, up, title, asked, status.captured, 0.35 * math.sin(0.7 * self.clock))
+            up[2], up[0] = 1.0, 1.0 if asked else 0.0  # a leaning pose: 45 deg between +z and +x
+        r.draw_board(surface, target, up, title, face, status.captured, 0.35 * math.sin(0.7 * self.clock))
         side = pygame.Rect(target.right + 20, rect.top, rect.right - target.right - 20, rect.height)
         surface.blit(r.sprites.panel(side.width, side.height), side)
-        r.draw_face_chips(surface, pygame.Rect(side.left + 12, side.top + 20, side.width - 24, 48), asked,
+        r.draw_face_chips(surface, pygame.Rect(side.left + 12, side.top + 20, side.width - 24, 48), face,
                           status.captured, status.up, self.clock)
         hold = setup.accel.params.hold_s
-        still = "every face held still" if status.done else \
-            f"still {status.still_s:.1f} s of {hold:.1f}" + (f" on {status.up}" if status.up else "")
+        where = "leaning" if status.up == TILTED else f"on {status.up}" if status.up else ""
+        still = "every pose held still" if status.done else \
+            f"still {status.still_s:.1f} s of {hold:.1f}" + (f" {where}" if where else "")
         r.draw_meter(surface, pygame.Rect(side.left + 16, side.top + 100, side.width - 32, 48), still,
                      1.0 if status.done else status.still_s / hold, GREEN)
         r.draw_meter(surface, pygame.Rect(side.left + 16, side.top + 180, side.width - 32, 48),
-                     f"faces captured: {len(status.captured)} of 6", len(status.captured) / 6, YELLOW)
+                     f"poses captured: {len(status.captured)} of {status.total}", len(status.captured) / status.total,
+                     YELLOW)
 
     def draw_mag(self, surface: pygame.Surface, rect: pygame.Rect, setup: BoardSetup) -> None:
         """The sphere of directions filling in, the coverage against what is needed, the field now."""

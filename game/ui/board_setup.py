@@ -5,7 +5,8 @@ The same procedures as ``armtracker calibrate accel``, ``calibrate mag`` and
 :mod:`tracker.thermal`), fed the raw samples the game's input keeps
 (:class:`game.body.controls.SampleInput`'s ``recent``), one phase after the other:
 
-``accel``  put each face up in turn (the procedure captures a still pose by itself)
+``accel``  put each face up in turn, then lean the board on an edge a few times (the procedure
+           captures a still pose by itself)
 ``accel_done``  the fit's residual, saved; Enter goes on to the magnetometer
 ``mag``  turn the board slowly through all orientations until enough directions are covered
 ``mag_done``  the residual, the field's strength and dip, saved; Enter goes on to the warm-up
@@ -35,7 +36,7 @@ from typing import Callable, Protocol, TypeVar
 import numpy as np
 
 from tracker import protocol as P
-from tracker.accel_procedure import AccelProcedure, AccelStatus
+from tracker.accel_procedure import AccelProcedure, AccelStatus, misalignment_text, sensitivity_text
 from tracker.board import BoardSettings, hello as board_hello
 from tracker.calibration import (MG, BoardCalibration, CalibrationFileError, ProcedureRecord, SixPoseResult,
                                  damage, load, save_procedure)
@@ -74,7 +75,7 @@ def fresh_samples(recent: deque[RawSample], last: RawSample | None) -> list[RawS
 
 def accel_fit(board_id: str, procedure: AccelProcedure, result: SixPoseResult
               ) -> tuple[BoardCalibration, ProcedureRecord]:
-    """The six-pose procedure's fields (the accelerometer's and the gyroscope's sensitivities), and its
+    """The accelerometer procedure's fields (the accelerometer's and the gyroscope's calibration), and its
     record (now)."""
     fitted, _ = procedure.calibration(result, board_id)
     return fitted, ProcedureRecord.now(ACCEL, {"residual_m_s2": result.residual})
@@ -83,7 +84,7 @@ def accel_fit(board_id: str, procedure: AccelProcedure, result: SixPoseResult
 def mag_fit(board_id: str, result: MagResult) -> tuple[BoardCalibration, ProcedureRecord]:
     """The magnetometer's fields of a fit, and the procedure's record (now)."""
     fitted = BoardCalibration(board_id, mag_hard_iron=np.array(result.fit.offset),
-                              mag_soft_iron=np.array(result.fit.soft_iron))
+                              mag_soft_iron=result.soft_iron)
     return fitted, ProcedureRecord.now(MAG, {"residual_ut": result.residual_ut, "strength_ut": result.strength_ut,
                                              "dip_deg": result.dip_deg})
 
@@ -248,10 +249,13 @@ class BoardSetup:
         result = self.accel.result()
         if not result.ok:
             return self._fail(ACCEL, result.message)
-        self.figures = [f"residual {result.residual:.3f} m/s^2 over the six poses",
+        fitted, record = accel_fit(self.board_id, self.accel, result)
+        self.figures = [f"residual {result.residual:.3f} m/s^2 over the {self.accel.total} poses",
                         "offset " + ", ".join(f"{v * 1000 / P.STANDARD_GRAVITY:+.0f}" for v in result.offset) + " mg",
-                        "scale " + ", ".join(f"{v:.4f}" for v in result.scale)]
-        self._save(ACCEL_DONE, *accel_fit(self.board_id, self.accel, result))
+                        "scale " + ", ".join(f"{v:.4f}" for v in result.scale) + ", "
+                        + misalignment_text(result.misalignment),
+                        "gyroscope " + sensitivity_text(fitted.gyro_scale)]
+        self._save(ACCEL_DONE, fitted, record)
 
     def _finish_mag(self) -> None:
         try:
@@ -260,7 +264,8 @@ class BoardSetup:
             return self._fail(MAG, str(e))
         self.figures = [f"residual {result.residual_ut:.2f} uT",
                         f"field strength {result.strength_ut:.1f} uT, dip {result.dip_deg:.1f} deg",
-                        "hard iron " + ", ".join(f"{v:+.1f}" for v in result.fit.offset) + " uT"]
+                        "hard iron " + ", ".join(f"{v:+.1f}" for v in result.fit.offset) + " uT",
+                        result.alignment.describe()]
         self._save(MAG_DONE, *mag_fit(self.board_id, result))
 
     def _finish_warm(self) -> None:

@@ -22,7 +22,7 @@ RATE = 200.0
 
 
 def _fitted(result) -> BoardCalibration:
-    return BoardCalibration(mag_hard_iron=np.array(result.fit.offset), mag_soft_iron=np.array(result.fit.soft_iron))
+    return BoardCalibration(mag_hard_iron=np.array(result.fit.offset), mag_soft_iron=result.soft_iron)
 
 
 @pytest.mark.parametrize("errors, seed", [(maker_errors(), s) for s in (0, 1, 2)]

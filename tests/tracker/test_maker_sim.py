@@ -40,6 +40,18 @@ def test_calibration_errors_are_the_issues_four_figures_worked_by_hand():
     assert errors["mag_hard_iron_error_ut"] == pytest.approx(5.0)  # |(3, 4, 0)|
     assert errors["mag_soft_iron_error_pct"] == pytest.approx(2.0)  # the (0, 1) element
     assert errors["gyro_scale_error_pct"] == pytest.approx(0.1)  # z
+    # F T^-1 = diag(1, 1.003, 1): the scale's 0.3 % is all that no rotation explains; the gyroscope's
+    # diag(1, 1, 0.999) against it leaves 0.3 % on y (the accelerometer's frame stretched, not the gyroscope's)
+    assert errors["acc_skew_error_pct"] == pytest.approx(0.3)
+    assert errors["gyro_matrix_error_pct"] == pytest.approx(0.3)
+    skewed = replace(fitted, acc_misalignment=np.array([[1.0, 0.01, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]),
+                     acc_scale=truth.acc_scale, gyro_scale=truth.gyro_scale)
+    turned = replace(skewed, acc_misalignment=np.array([[1.0, 0.01, 0.0], [-0.01, 1.0, 0.0], [0.0, 0.0, 1.0]]))
+    # F T^-1 = M, the misalignment, with the true scales: a 1 % shear is half symmetric (0.5 %) and leaves
+    # the gyroscope's frame 1 % off the accelerometer's; a skew-symmetric M (a turn of the frame) is no skew
+    assert calibration_errors(skewed, truth)["acc_skew_error_pct"] == pytest.approx(0.5)
+    assert calibration_errors(skewed, truth)["gyro_matrix_error_pct"] == pytest.approx(1.0)
+    assert calibration_errors(turned, truth)["acc_skew_error_pct"] < 1e-9
 
 
 def _noise_free(**kw: float):
