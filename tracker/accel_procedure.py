@@ -150,7 +150,7 @@ class _Hold:
 
 
 class AccelProcedure:
-    """The six-pose procedure, streaming (module docstring). Feed raw samples; read :attr:`status`."""
+    """The accelerometer's procedure, streaming (module docstring). Feed raw samples; read :attr:`status`."""
 
     def __init__(self, params: AccelProcedureParams = AccelProcedureParams()) -> None:
         if not (params.hold_s > 0.0 and params.moved_after_s >= 0.0 and params.max_gap_s > 0.0
@@ -193,19 +193,19 @@ class AccelProcedure:
         face = next((f for f in FACES if f not in self._poses), None)
         return face or (TILTED if len(self._poses) < self.total else None)
 
-    def _leaning(self, acc: tuple[float, float, float], tilt: float) -> tuple[str | None, float]:
+    def _leaning(self, acc: tuple[float, float, float], tilt: float) -> str | None:
         """The pose of a board leaning ``tilt`` from the nearest face, when a leaning pose is asked:
         the leaning pose captured within ``lean_apart`` of ``acc`` (the nearest), else :data:`TILTED`
-        when it leans ``lean_apart`` from every face, else None; and ``tilt``."""
+        when it leans ``lean_apart`` from every face, else None."""
         if self._asked() != TILTED:
-            return None, tilt
+            return None
         g = _unit(np.array(acc, dtype=float))
         leans = {key: math.acos(min(1.0, float(g @ _unit(pose.acc.mean(axis=0)))))
                  for key, pose in self._poses.items() if key not in FACES}
         nearest = min(leans, key=leans.__getitem__, default=None)
         if nearest is not None and leans[nearest] < self.params.lean_apart:
-            return nearest, tilt
-        return (TILTED if tilt >= self.params.lean_apart else None), tilt
+            return nearest
+        return TILTED if tilt >= self.params.lean_apart else None
 
     def interrupted(self) -> None:
         """The link was lost (a pulled cable): the pose being held is forgotten, the captured kept.
@@ -238,7 +238,7 @@ class AccelProcedure:
         gap = math.inf if self._last_t is None else t - self._last_t
         self._last_t = t
         up, tilt = pose_label(acc)
-        face, apart = (up, tilt) if tilt <= self.params.pose.max_tilt else self._leaning(acc, tilt)
+        face = up if tilt <= self.params.pose.max_tilt else self._leaning(acc, tilt)
         if 0.0 < gap <= self.params.max_gap_s:
             self._detector.update(gyr, acc, gap)
         else:
@@ -258,7 +258,7 @@ class AccelProcedure:
             if held >= self.params.hold_s - 1e-9:
                 self._capture(face, t)
                 held = 0.0
-        self._status = self._describe(face, held, apart)
+        self._status = self._describe(face, held, tilt)
         return self._status
 
     def _follow_turn(self, t: float, gyr: tuple[float, float, float]) -> None:
@@ -326,18 +326,18 @@ class AccelProcedure:
         return (f"lean the board on an edge against something, about 45 deg, a new way "
                 f"(leaning pose {len(self._poses) - len(FACES) + 1} of {self.params.tilted})")
 
-    def _describe(self, face: str | None, held: float, apart: float) -> AccelStatus:
-        """The status for the pose ``face`` now (a face, :data:`TILTED` or None), held still for ``held`` s;
-        ``apart``: how far the board leans from the nearest face."""
+    def _describe(self, face: str | None, held: float, tilt: float) -> AccelStatus:
+        """The status for the pose ``face`` now (a face, a leaning pose, :data:`TILTED` or None), held still
+        for ``held`` s; ``tilt``: how far the board leans from the nearest face."""
         asked, hold, total = self._asked(), self.params.hold_s, self.total
         captured = self.captured
         if asked is None:
             return AccelStatus(None, face, 0.0, captured, f"all {total} poses captured", True, total)
         if face is None:
             if asked == TILTED:
-                lean = f" (it leans {apart / DEG:.0f} deg from a face, {self.params.lean_apart / DEG:.0f} needed)"
+                lean = f" (it leans {tilt / DEG:.0f} deg from a face, {self.params.lean_apart / DEG:.0f} needed)"
             else:
-                lean = f" (it leans {apart / DEG:.0f} deg from a face)" if apart < 45.0 * DEG else ""
+                lean = f" (it leans {tilt / DEG:.0f} deg from a face)" if tilt < 45.0 * DEG else ""
             text = f"{self._ask(asked)}{lean}"
         elif face in self._poses:
             if not self._left and face == captured[-1]:

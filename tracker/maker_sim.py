@@ -438,8 +438,8 @@ def calibration_errors(fitted: BoardCalibration, truth: BoardCalibration) -> dic
         "acc_offset_error_mg": float(np.max(np.abs(fitted.acc_offset - true_offset))) / MG,
         "acc_scale_error_pct": float(np.max(np.abs(fitted.acc_scale / truth.acc_scale - 1.0))) * 100.0,
         "mag_hard_iron_error_ut": float(np.linalg.norm(fitted.mag_hard_iron - truth.mag_hard_iron)),
-        "mag_soft_iron_error_pct": float(np.max(np.abs(fitted.mag_soft_iron - _rotation(acc_left) @ truth.mag_soft_iron)))
-        * 100.0,
+        "mag_soft_iron_error_pct": float(np.max(np.abs(fitted.mag_soft_iron
+                                                        - _rotation(acc_left) @ truth.mag_soft_iron))) * 100.0,
         "gyro_thermal_error_dps_per_c": math.degrees(float(np.linalg.norm(fitted.gyro_thermal - truth.gyro_thermal))),
         "acc_thermal_error_mg_per_c": float(np.linalg.norm(fitted.acc_thermal - truth.acc_thermal)) / MG,
         "gyro_scale_error_pct": float(np.max(np.abs(np.diag(fitted.gyro_scale) / np.diag(truth.gyro_scale) - 1.0))) * 100.0,

@@ -49,7 +49,8 @@ def test_the_procedure_recovers_the_boards_offset_scale_and_skew(errors, seed):
     captured = [m for _, m in run.history if m.startswith("captured")]
     assert len(captured) == 9 and captured[0] == f"captured {FACES[0]}: now put {FACES[1]} up, flat on the table"
     assert captured[5].startswith(f"captured {FACES[-1]}: now lean the board on an edge")
-    assert captured[6].startswith(f"captured {TILTED} 1: now lean the board") and captured[6].endswith("(leaning pose 2 of 4)")
+    assert captured[6].startswith(f"captured {TILTED} 1: now lean the board")
+    assert captured[6].endswith("(leaning pose 2 of 4)")
 
 
 @settings(derandomize=True, max_examples=6, deadline=None)
@@ -187,8 +188,8 @@ def _leaning(about: str, degrees: float) -> tuple[float, float, float]:
 
 
 def test_after_the_faces_a_leaning_pose_is_asked_for_and_captured_once_far_enough_from_every_pose():
-    """A lean of 22 deg from a face is no leaning pose (25 deg asked; 20 would be the face), 45 deg is; the same lean again is
-    too near the one captured; a lean about the other axis is the next."""
+    """A lean of 22 deg from a face is no leaning pose (25 deg asked; 20 would be the face), 45 deg is;
+    the same lean again is too near the one captured; a lean about the other axis is the next."""
     procedure = AccelProcedure(AccelProcedureParams(hold_s=1.0))
     t = _six_faces(procedure)
     assert procedure.status.captured == FACES and procedure.status.asked == TILTED

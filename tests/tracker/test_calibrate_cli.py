@@ -179,7 +179,8 @@ def test_a_damaged_file_is_said_before_and_kept_beside_the_new_one(runs):
         said = runs.results[name].stderr.splitlines()
         warning = next(i for i, line in enumerate(said) if "damaged" in line)
         assert "keeping a copy as virtual-imu-71.json.damaged" in said[warning]
-        assert warning < next(i for i, line in enumerate(said) if line.startswith(("lay the board flat", "turn the board")))
+        first_prompt = ("lay the board flat", "turn the board")
+        assert warning < next(i for i, line in enumerate(said) if line.startswith(first_prompt))
 
 
 def test_the_maker_is_told_of_every_slip_and_the_procedure_resumes_after_a_pulled_cable(runs):
