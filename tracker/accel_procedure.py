@@ -130,6 +130,16 @@ class AccelStatus:
     done: bool
     total: int = len(FACES)
 
+    @property
+    def leaning(self) -> int:
+        """How many leaning poses are asked in all."""
+        return self.total - len(FACES)
+
+    @property
+    def leaned(self) -> int:
+        """How many leaning poses are captured."""
+        return sum(pose not in FACES for pose in self.captured)
+
 
 @dataclass
 class _Hold:
@@ -171,6 +181,7 @@ class AccelProcedure:
         self._die: float | None = None  # the die's temperature at the latest sample (degC; None: not sent)
         self._pose_die: dict[str, float | None] = {}  # ... when each pose was captured
         self._pose_mag: dict[str, Array] = {}  # the magnetometer's mean raw reading over each pose, uT
+        self._leans: dict[str, Array] = {}  # each leaning pose's direction of gravity (unit, raw)
         self._status = AccelStatus(FACES[0], None, 0.0, (), f"put {FACES[0]} up, flat on the table", False,
                                    self.total)
 
@@ -200,8 +211,7 @@ class AccelProcedure:
         if self._asked() != TILTED:
             return None
         g = _unit(np.array(acc, dtype=float))
-        leans = {key: math.acos(min(1.0, float(g @ _unit(pose.acc.mean(axis=0)))))
-                 for key, pose in self._poses.items() if key not in FACES}
+        leans = {key: math.acos(min(1.0, float(g @ up))) for key, up in self._leans.items()}
         nearest = min(leans, key=leans.__getitem__, default=None)
         if nearest is not None and leans[nearest] < self.params.lean_apart:
             return nearest
@@ -300,7 +310,8 @@ class AccelProcedure:
             if len(h.t) >= self.params.pose.min_samples else f"too few samples ({len(h.t)})"
         if moved is None:
             if face == TILTED:
-                face = f"{TILTED} {len(self._poses) - len(FACES) + 1}"
+                face = f"{TILTED} {len(self._leans) + 1}"
+                self._leans[face] = _unit(pose.acc.mean(axis=0))
             self._poses[face] = pose
             self._pose_die[face] = self._die
             fields = [m for m in h.mag if m is not None and all(math.isfinite(x) for x in m)]
@@ -324,7 +335,7 @@ class AccelProcedure:
         if asked != TILTED:
             return f"put {asked} up, flat on the table"
         return (f"lean the board on an edge against something, about 45 deg, a new way "
-                f"(leaning pose {len(self._poses) - len(FACES) + 1} of {self.params.tilted})")
+                f"(leaning pose {len(self._leans) + 1} of {self.params.tilted})")
 
     def _describe(self, face: str | None, held: float, tilt: float) -> AccelStatus:
         """The status for the pose ``face`` now (a face, a leaning pose, :data:`TILTED` or None), held still
@@ -362,12 +373,12 @@ class AccelProcedure:
 
         Raises ValueError before all the poses are captured.
         """
-        leaning = self.total - len(FACES) - sum(key not in FACES for key in self._poses)
-        missing = [f for f in FACES if f not in self._poses] + ([f"{leaning} leaning"] if leaning else [])
+        left = self.params.tilted - len(self._leans)
+        missing = [f for f in FACES if f not in self._poses] + ([f"{left} leaning"] if left else [])
         if missing:
             raise ValueError(f"the accelerometer calibration is not finished: {len(self._poses)} of "
                              f"{self.total} poses captured ({', '.join(missing)} missing)")
-        leaning = [pose for key, pose in self._poses.items() if key not in FACES]
+        leaning = [self._poses[key] for key in self._leans]
         return six_pose_calibration([self._poses[f] for f in FACES], leaning, misalignment=len(leaning) >= 3,
                                     params=self.params.pose)
 

@@ -227,9 +227,8 @@ class AccelNarrator:
 
     def __call__(self, before: AccelStatus | None, st: AccelStatus, term: Terminal) -> None:
         if before is None:
-            leaning = st.total - len(FACES)
             term.say("lay the board flat, each face up in turn"
-                     + (f", then lean it on an edge {leaning} times" if leaning else "")
+                     + (f", then lean it on an edge {st.leaning} times" if st.leaning else "")
                      + "; a pose is captured once the board has lain still on it for a moment. "
                      + f"Put {_face(st.asked or FACES[0])}")
             return
@@ -248,9 +247,8 @@ class AccelNarrator:
 
 def live_accel(st: AccelStatus) -> str:
     marks = " ".join(f if f in st.captured else "--" for f in FACES)
-    leaning = st.total - len(FACES)
-    if leaning:
-        marks += f" lean {len(st.captured) - sum(f in st.captured for f in FACES)}/{leaning}"
+    if st.leaning:
+        marks += f" lean {st.leaned}/{st.leaning}"
     return f"[{marks}]  {st.message}"
 
 
@@ -260,8 +258,8 @@ def finish_accel(board_id: str, procedure: AccelProcedure, status: AccelStatus,
     not all six faces were captured in time or their fit failed."""
     if not status.done:
         missing = [f for f in FACES if f not in status.captured]
-        leaning = status.total - len(FACES) - (len(status.captured) - (len(FACES) - len(missing)))
-        todo = missing + ([f"{leaning} leaning pose{'s' if leaning > 1 else ''}"] if leaning else [])
+        left = status.leaning - status.leaned
+        todo = missing + ([f"{left} leaning pose{'s' if left > 1 else ''}"] if left else [])
         raise CalibrationRefused(f"only {len(status.captured)} of {status.total} poses captured in {seconds:g} s "
                                  f"({', '.join(todo)} still to do); nothing was saved")
     result = procedure.result()

@@ -42,11 +42,14 @@ It refuses, each with one line:
 
 It reports the fit's residual, the field's strength and its dip, the angle
 of the calibrated field below the horizontal: sin(dip) = -h . a / (|h| |a|),
-a the accelerometer's specific force (up at rest), the mean over pairs of
-field and specific force kept while turning (one every ``pair_every_s``
-whose |a| is within 10 % of g: the board turned slowly, not shaken; at most
-``pairs``). With the board's accelerometer calibration given, its offsets
-(up to 60 mg, 3.4 deg of gravity's direction) do not bias the dip.
+a the accelerometer's specific force (up at rest). So that nothing but
+sums is kept, the mean over the samples of h . a / |a| is computed from
+running sums: with h = R W (m - b), sum(a_k^T R W (m_k - b)) = trace(R W
+(sum m_k u_k^T - b sum u_k^T)), u_k = a_k / |a_k|, over the samples whose |a|
+is within 10 % of g (the board turned slowly, not shaken), R the turn onto
+the accelerometer's frame (below). With the board's accelerometer
+calibration given, its offsets (up to 60 mg, 3.4 deg of gravity's
+direction) do not bias the dip.
 
 The frame. The accelerometer's procedure keeps, for each of its still
 poses, the magnetometer's mean reading and gravity's calibrated direction
@@ -108,9 +111,8 @@ class MagProcedureParams:
     the centre (and, once enough is covered, of the whole fit). ``store``: how
     the readings are kept (:class:`tracker.magfit.OnlineParams`; only its
     store is used). ``still_tolerance``: samples whose |a| is within this
-    share of g count toward the dip; ``pair_every_s`` and ``pairs``: how often
-    such a sample is kept, and how many at most (four minutes of turning);
-    ``alignment``: :func:`tracker.mag_alignment.fit_alignment`'s.
+    share of g count toward the dip; ``alignment``:
+    :func:`tracker.mag_alignment.fit_alignment`'s.
     """
 
     target_coverage: float = 0.9
@@ -124,8 +126,6 @@ class MagProcedureParams:
     average: int = 10
     store: OnlineParams = field(default_factory=OnlineParams)
     still_tolerance: float = 0.1
-    pair_every_s: float = 0.05
-    pairs: int = 4800
     alignment: AlignmentParams = field(default_factory=AlignmentParams)
 
 
@@ -165,6 +165,33 @@ class MagResult:
     def soft_iron(self) -> Array:
         """The soft iron to save: the fit's, turned onto the accelerometer's frame (R W)."""
         return self.alignment.rotation @ np.array(self.fit.soft_iron)
+
+
+@dataclass
+class _DipSums:
+    """Running sums for the dip (module docstring): sum m u^T (rows), sum u, count."""
+
+    mu: list[float] = field(default_factory=lambda: [0.0] * 9)
+    u: list[float] = field(default_factory=lambda: [0.0] * 3)
+    n: int = 0
+
+    def add(self, m: tuple[float, float, float], a: tuple[float, float, float]) -> None:
+        norm = math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+        u = (a[0] / norm, a[1] / norm, a[2] / norm)
+        for i in range(3):
+            self.u[i] += u[i]
+            for j in range(3):
+                self.mu[3 * i + j] += m[i] * u[j]
+        self.n += 1
+
+    def dip_deg(self, fit: MagFit, rotation: Array) -> float:
+        """The dip of the calibrated field below the horizontal, degrees (nan with no samples), the field
+        turned by ``rotation`` onto the accelerometer's frame (module docstring)."""
+        if not self.n:
+            return math.nan
+        w, b = rotation @ np.array(fit.soft_iron), np.array(fit.offset)
+        up = float(np.trace(w @ (np.reshape(self.mu, (3, 3)) - np.outer(b, self.u)))) / (self.n * fit.field_ut)
+        return math.degrees(math.asin(max(-1.0, min(1.0, -up))))
 
 
 @dataclass
@@ -211,8 +238,7 @@ class MagProcedure:
         self.params = params
         self._accel = accel
         self._store = OnlineMagFit(params.store)
-        self._pairs: list[tuple[float, float, float, float, float, float]] = []  # field and force (module docstring)
-        self._pair_t = -math.inf
+        self._dip = _DipSums()
         self._low = [math.inf] * 3  # each axis's smallest and largest reading, uT
         self._high = [-math.inf] * 3
         self._group: list[float] = [0.0, 0.0, 0.0, 0.0]  # the readings being averaged: sums and count
@@ -259,10 +285,8 @@ class MagProcedure:
         c = self._accel.apply(sample).acc if self._accel is not None else sample.acc
         a = (float(c[0]), float(c[1]), float(c[2]))
         g = math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
-        if abs(g - GRAVITY) <= self.params.still_tolerance * GRAVITY and len(self._pairs) < self.params.pairs \
-                and not 0.0 <= sample.t - self._pair_t < self.params.pair_every_s:
-            self._pair_t = sample.t
-            self._pairs.append((m[0], m[1], m[2], *a))
+        if abs(g - GRAVITY) <= self.params.still_tolerance * GRAVITY:
+            self._dip.add(m, a)
         if self._refit_t is None or not 0.0 <= sample.t - self._refit_t < self.params.refit_every_s:
             self._refit_t = sample.t
             self._refit()
@@ -380,22 +404,16 @@ class MagProcedure:
         problem = self._judge(fit)
         if problem:
             raise MagFitError(problem)
-        dip, alignment = self._dip_and_alignment(fit)
-        return MagResult(fit, fit.field_ut, dip, fit.residual_ut, alignment)
+        alignment = self._alignment(fit)
+        return MagResult(fit, fit.field_ut, self._dip.dip_deg(fit, alignment.rotation), fit.residual_ut, alignment)
 
-    def _dip_and_alignment(self, fit: MagFit) -> tuple[float, Alignment]:
-        """The turn onto the accelerometer's frame, from the accelerometer procedure's still poses, and
-        the dip (degrees; nan with no pairs) over the pairs kept while turning, in that frame (module
+    def _alignment(self, fit: MagFit) -> Alignment:
+        """The turn onto the accelerometer's frame, from the accelerometer procedure's still poses (module
         docstring)."""
         poses = self._accel.pose_fields if self._accel is not None else np.zeros((0, 7))
         poses = poses[poses[:, 6] > 0]
-        alignment = fit_alignment((poses[:, :3] - np.array(fit.offset)) @ np.array(fit.soft_iron).T,
-                                  poses[:, 3:6], self.params.alignment) if len(poses) >= MIN_POSES \
-            else Alignment(problem=f"{len(poses)} still poses of the accelerometer's procedure with magnetometer "
-                                   f"readings ({MIN_POSES} needed): run calibrate accel first")
-        if not self._pairs:
-            return math.nan, alignment
-        x = np.array(self._pairs)
-        h = (x[:, :3] - np.array(fit.offset)) @ (alignment.rotation @ np.array(fit.soft_iron)).T
-        up = np.sum(h * x[:, 3:], axis=1) / (np.linalg.norm(h, axis=1) * np.linalg.norm(x[:, 3:], axis=1))
-        return math.degrees(math.asin(max(-1.0, min(1.0, -float(np.mean(up)))))), alignment
+        if len(poses) < MIN_POSES:
+            return Alignment(problem=f"{len(poses)} still poses of the accelerometer's procedure with magnetometer "
+                                     f"readings ({MIN_POSES} needed): run calibrate accel first")
+        field = (poses[:, :3] - np.array(fit.offset)) @ np.array(fit.soft_iron).T
+        return fit_alignment(field, poses[:, 3:6], self.params.alignment)

@@ -58,7 +58,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from . import quat as Q
-from .accel_procedure import FACES, TILTED, AccelProcedure, AccelStatus
+from .accel_procedure import TILTED, AccelProcedure, AccelStatus
 from .board import BoardSettings, acc_lsb, counts, gyr_lsb
 from .calibration import MG, BoardCalibration, SixPoseResult
 from .mag_procedure import MagProcedure, MagResult, MagStatus
@@ -366,8 +366,7 @@ class SimulatedMaker:
             self._replan(_Move(back, back + TURN_S, self._where(back), self._face_q(status.up, back), status.up))
             self._wait_until = back + TURN_S + 2.0  # and reads what the procedure says about it
         else:
-            target = status.asked if status.asked != TILTED \
-                else f"{TILTED} {len(status.captured) - len(FACES) + 1}"
+            target = status.asked if status.asked != TILTED else f"{TILTED} {status.leaned + 1}"
             if current.face != target:
                 self._move(target)
 

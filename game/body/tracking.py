@@ -44,8 +44,7 @@ class Tracking:
     use_magnetometer: bool = True
     board: BoardCalibration = field(default_factory=BoardCalibration)
     flex_calibration: FlexCalibration | None = None
-    filter: Filter = field(default_factory=lambda: for_mpu9250(P.BOOT_RATE_HZ))  # or another (tracker.fusion.make)
-    # to compare
+    filter: Filter = field(default_factory=lambda: for_mpu9250(P.BOOT_RATE_HZ))  # another: tracker.fusion.make
     flex: FlexTracker = field(init=False)
     anchor: HeadingAnchor = field(default_factory=HeadingAnchor)  # "forward" as the field's heading settles
     lever: LeverArm = field(default_factory=LeverArm)  # the accelerometer moved to the shoulder

@@ -824,11 +824,9 @@ class BoardSetupScreen:
         half = (rect.width - 20) // 2
         target = pygame.Rect(rect.left, rect.top, half, rect.height)
         asked = status.asked
-        leaning = len(status.captured) - sum(f in status.captured for f in FACES)
         face = asked if asked in FACES else None
         title = f"next: put {asked} up" if face else \
-            f"next: lean it on an edge ({leaning + 1} of {status.total - len(FACES)})" if asked else \
-            "all poses captured"
+            f"next: lean it on an edge ({status.leaned + 1} of {status.leaning})" if asked else "all poses captured"
         up = np.zeros(3)
         if face:
             up["xyz".index(face[1])] = 1.0 if face[0] == "+" else -1.0
