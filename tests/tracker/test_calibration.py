@@ -671,3 +671,21 @@ def test_lost_samples_neither_fake_rest_in_motion_nor_end_rest():
     assert rest[(t > 1.6) & (t < 2.0)].all() and rest[t > 7.0 + 1.5 + 4 * C.RestParams().tau].all()
     still_gyr = gyr[keep][rest & (t > 9.0)]
     assert detector.gyr_lp == pytest.approx(still_gyr.mean(axis=0), abs=0.2 * DEG)
+
+
+def test_the_poses_fields_round_trip_default_in_an_older_file_and_a_wrong_shape_is_one_clear_error():
+    """``pose_fields`` (the accelerometer procedure's poses, for the magnetometer's alignment): saved and read
+    back as written, zeros in a file from before it was kept, and refused with its name and shape when wrong;
+    no correction reads it."""
+    rows = np.zeros((C.POSE_ROWS, 7))
+    rows[:2] = [[20.0, -5.0, 40.0, 0.0, 0.0, 1.0, 1.0], [-3.0, 22.0, -41.0, 0.6, 0.0, 0.8, 1.0]]
+    cal = C.BoardCalibration(acc_offset=OFFSET, pose_fields=rows)
+    assert np.array_equal(C.BoardCalibration.from_json(cal.to_json()).pose_fields, rows)
+    older = {k: v for k, v in cal.to_json().items() if k != "pose_fields"}
+    assert not C.BoardCalibration.from_json(older).pose_fields.any()
+    with pytest.raises(ValueError, match=f"pose_fields must be {C.POSE_ROWS} x 7 finite numbers"):
+        C.BoardCalibration.from_json({**cal.to_json(), "pose_fields": rows[:3].tolist()})
+    sample = P.RawSample(0.0, 0, 0, (100, -200, 2048), (10, -5, 3), (100, 200, -300), 400)
+    plain = C.BoardCalibration(acc_offset=OFFSET)
+    for got, want in zip(cal.apply(sample), plain.apply(sample)):
+        assert got == pytest.approx(want, abs=0.0)
