@@ -54,6 +54,7 @@ HARD_IRON = Ranged(float, 0, 200)
 SOFT_IRON = Ranged(float, 0, 20)
 ROOM = Ranged(float, 0, 40)
 NOISE_SCALE = Ranged(float, 0, 20)
+POWERED_FOR = Ranged(float, 0)  # seconds the virtual board had been on (its die warming) before the procedure
 
 
 class UsageError(Exception):
@@ -466,7 +467,8 @@ def unplug_spec(text: str) -> tuple[float, float]:
     return value
 
 
-_SIMULATED = ("unplug", "seed", "hard_iron", "soft_iron", "room", "noise_scale", "magnet", "nudge", "repeat_face")
+_SIMULATED = ("unplug", "seed", "hard_iron", "soft_iron", "room", "noise_scale", "magnet", "nudge", "repeat_face",
+              "powered_for")
 
 
 def seconds_list(text: str) -> tuple[float, ...]:
@@ -493,7 +495,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
                          "it needs --virtual")
     maker = K.VirtualMaker(args.seed or 0, 1.0 if args.noise_scale is None else args.noise_scale,
                            args.hard_iron, args.soft_iron, args.room, args.magnet, args.nudge or (),
-                           args.repeat_face).maker() if args.virtual else None
+                           args.repeat_face, args.powered_for or 0.0).maker() if args.virtual else None
     term = K.Terminal()
     with open_source(args, motion=maker) as (link, board):
         with contextlib.ExitStack() as faults:
@@ -595,7 +597,7 @@ def build_parser() -> argparse.ArgumentParser:
                                "watch the board warm this long")):
         q = steps.add_parser(name, help=text)
         add_source_options(q, modes=False)
-        default = {"accel": "300", "mag": "180", "thermal": "600"}[name]
+        default = {"accel": "600", "mag": "180", "thermal": "600"}[name]
         q.add_argument("--seconds", type=SECONDS, help=f"{limit}, {SECONDS.text} ({default})")
         q.add_argument("--json", action="store_true", help="print the result as JSON")
         v = q.add_argument_group("the simulated board and maker (with --virtual)")
@@ -612,6 +614,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help="the maker bumps the board AT seconds in (each time given)")
         v.add_argument("--repeat-face", action="store_true",
                        help="the maker lays the first face down twice before obeying")
+        v.add_argument("--powered-for", type=POWERED_FOR, metavar="SECONDS",
+                       help=f"the board had been on this long before, {POWERED_FOR.text} (0: just plugged in, "
+                            "its die warming for minutes)")
         q.set_defaults(func=cmd_calibrate)
     q = steps.add_parser("show", help="what is saved, for which board, and when")
     q.add_argument("--json", action="store_true")

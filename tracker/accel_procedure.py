@@ -45,6 +45,15 @@ after gives the gyroscope's sensitivity matrix (:mod:`tracker.gyro_scale`):
 :meth:`AccelProcedure.calibration` keeps them with the accelerometer's fit. A
 pulled cable or a stretch lost on the link breaks the chain of turns there.
 
+Warming. A board just powered up warms for minutes, and its zero-g level
+moves with the die's temperature (up to 1.5 mg per degC, PS-MPU-9250A-01
+table 2): poses held a minute apart on a warming board disagree by several
+mg, and the fit puts that into the scale and the skew. So no pose is held
+while the die's temperature changes faster than 1 degC a minute, or before
+that has been measured for 10 s (:mod:`tracker.warming`); the status says
+how fast it warms and the board may lie where it is meanwhile. A board that
+sends no temperature (a firmware before the TEMP frame) is not waited for.
+
 Faces. The face up is the sensor axis nearest the measured specific force
 (:func:`tracker.calibration.pose_label`); a board leaning more than
 ``max_tilt`` from it (20 deg, as :class:`tracker.calibration.PoseParams`)
@@ -67,6 +76,7 @@ from .calibration import (DEG, BoardCalibration, Pose, PoseParams, RestDetector,
                           pose_label, six_pose_calibration, window_motion)
 from .gyro_scale import SensitivityFit, SensitivityParams, Turn, fit_sensitivity, integrate_turn
 from .protocol import RawSample
+from .warming import DieWarming, WarmingParams
 
 FACES: tuple[str, ...] = ("+z", "-z", "+x", "-x", "+y", "-y")  # the order the maker is asked for
 TILTED = "tilted"  # what is asked (and up) after the faces: a leaning pose
@@ -96,7 +106,8 @@ class AccelProcedureParams:
     the link) break the hold. ``turns``: the gyroscope's fit from the turns between the poses.
     ``tilted``: leaning poses after the faces (module docstring; 0 leaves the misalignment
     the identity, as before they were asked for); ``lean_apart``: how far a leaning pose
-    leans from every face and every leaning pose before it.
+    leans from every face and every leaning pose before it. ``warming``: how fast the die
+    may warm while a pose is held (module docstring).
     """
 
     hold_s: float = 2.0
@@ -107,6 +118,7 @@ class AccelProcedureParams:
     turns: SensitivityParams = field(default_factory=SensitivityParams)  # the gyroscope's fit from the turns
     tilted: int = 4
     lean_apart: float = 25.0 * DEG
+    warming: WarmingParams = field(default_factory=WarmingParams)
 
 
 @dataclass(frozen=True)
@@ -119,7 +131,10 @@ class AccelStatus:
     captured); ``still_s``: how long the board has been still on ``up``;
     ``captured``: the poses captured so far, in order (faces, then "tilted 1",
     "tilted 2", ...); ``total``: how many poses are asked in all;
-    ``message``: one line for the maker; ``done``: all captured.
+    ``message``: one line for the maker; ``done``: all captured;
+    ``waiting``: no pose is held until the die's temperature settles (module
+    docstring); ``warming``: how fast it changes, degC per minute (None before
+    it has been measured, or from a board that sends no temperature).
     """
 
     asked: str | None
@@ -129,6 +144,8 @@ class AccelStatus:
     message: str
     done: bool
     total: int = len(FACES)
+    waiting: bool = False
+    warming: float | None = None
 
     @property
     def leaning(self) -> int:
@@ -179,6 +196,8 @@ class AccelProcedure:
         self._last_pose: tuple[Array, Array] | None = None  # its mean rate (the bias there) and specific force
         self._turns: list[Turn] = []
         self._die: float | None = None  # the die's temperature at the latest sample (degC; None: not sent)
+        self._warming = DieWarming(params.warming)
+        self._waiting = False  # the latest sample's: poses wait for the die to settle
         self._pose_die: dict[str, float | None] = {}  # ... when each pose was captured
         self._pose_mag: dict[str, Array] = {}  # the magnetometer's mean raw reading over each pose, uT
         self._leans: dict[str, Array] = {}  # each leaning pose's direction of gravity (unit, raw)
@@ -224,6 +243,7 @@ class AccelProcedure:
         clock when it powers up again).
         """
         self._restart()
+        self._warming.reset()
         self._last_t = None
         self._linked = False
         self._hold.face = None
@@ -245,6 +265,9 @@ class AccelProcedure:
         if self._asked() is None:
             return self._status
         self._die = sample.die_c
+        if sample.die_c is not None:
+            self._warming.update(t, sample.die_c)
+        self._waiting = sample.die_c is not None and not self._warming.settled
         gap = math.inf if self._last_t is None else t - self._last_t
         self._last_t = t
         up, tilt = pose_label(acc)
@@ -260,7 +283,10 @@ class AccelProcedure:
             self._hold.face = face
             self._left = self._left or not self._poses or face != self.captured[-1]
         held = min(self._detector.still_for, t - self._hold.since) if face else 0.0
-        if face is not None and face not in self._poses:
+        if self._waiting:  # no pose is held before the die settles (module docstring)
+            self._hold.clear()
+            self._hold.since, held = t, 0.0
+        elif face is not None and face not in self._poses:
             if held > 0.0:
                 self._keep(t, acc, gyr, sample.mag)
             else:
@@ -341,10 +367,12 @@ class AccelProcedure:
         """The status for the pose ``face`` now (a face, a leaning pose, :data:`TILTED` or None), held still
         for ``held`` s; ``tilt``: how far the board leans from the nearest face."""
         asked, hold, total = self._asked(), self.params.hold_s, self.total
-        captured = self.captured
+        captured, rate = self.captured, self._warming.rate
         if asked is None:
-            return AccelStatus(None, face, 0.0, captured, f"all {total} poses captured", True, total)
-        if face is None:
+            return AccelStatus(None, face, 0.0, captured, f"all {total} poses captured", True, total, warming=rate)
+        if self._waiting:
+            text = f"{self._warming_text()}; meanwhile {self._ask(asked)}"
+        elif face is None:
             if asked == TILTED:
                 lean = f" (it leans {tilt / DEG:.0f} deg from a face, {self.params.lean_apart / DEG:.0f} needed)"
             else:
@@ -365,7 +393,15 @@ class AccelProcedure:
                 self._moved = ""
             elif self._moved:
                 text = f"{self._moved}: {text}"
-        return AccelStatus(asked, face, held, captured, text, False, total)
+        return AccelStatus(asked, face, held, captured, text, False, total, self._waiting, rate)
+
+    def _warming_text(self) -> str:
+        """Why the poses wait for the die (module docstring)."""
+        warming, rate = self.params.warming, self._warming.rate
+        if rate is None:
+            return f"measuring how fast the board warms ({self._warming.measured_s:.0f} s of {warming.min_span_s:g})"
+        return (f"the board is {'warming' if rate > 0 else 'cooling'} {abs(rate):.1f} degC a minute: the poses wait "
+                f"until that is under {warming.max_c_per_min:g} (a few minutes after power-on)")
 
     def result(self) -> SixPoseResult:
         """Offset, scale and (with three or more leaning poses) misalignment from the captured poses

@@ -49,7 +49,7 @@ if TYPE_CHECKING:  # the virtual board and the simulated maker are POSIX only (a
 
 POLL_S = 0.02  # how often the loop drains the link, feeds the procedure and redraws (50 Hz)
 LIVE_INTERVAL_S = 0.25  # the live line on a terminal; elsewhere (a log, a test) once a second
-ACCEL_SECONDS = 300.0  # the longest an accelerometer calibration may take before it is refused
+ACCEL_SECONDS = 600.0  # the longest an accelerometer calibration may take (a fresh board waits minutes) before refused
 MAG_SECONDS = 180.0  # the same for the magnetometer: turning through all orientations takes a minute or two
 THERMAL_SECONDS = ThermalParams().duration_s  # how long the warm-up calibration watches the board warm
 MINUTE_S = 60.0  # the warm-up's narration: a line a minute
@@ -214,8 +214,8 @@ def _face(face: str) -> str:
 
 @dataclass
 class AccelNarrator:
-    """Says the first prompt, each capture and the next face, a face laid down again after its capture,
-    and a board that moved during a pose.
+    """Says the first prompt, a board warming too fast for the poses and when it has settled, each capture
+    and the next face, a face laid down again after its capture, and a board that moved during a pose.
 
     A captured face is said to be "already captured" only once the board has
     stayed on it for :data:`SETTLED_S`: a turn between two faces passes others
@@ -224,6 +224,7 @@ class AccelNarrator:
 
     again: tuple[str, float] | None = None  # the captured face up again, since when (monotonic s)
     said_again: bool = False
+    said_warming: bool = False
 
     def __call__(self, before: AccelStatus | None, st: AccelStatus, term: Terminal) -> None:
         if before is None:
@@ -232,6 +233,11 @@ class AccelNarrator:
                      + "; a pose is captured once the board has lain still on it for a moment. "
                      + f"Put {_face(st.asked or FACES[0])}")
             return
+        if st.waiting and st.warming is not None and not self.said_warming:
+            self.said_warming = True
+            term.say(st.message)
+        if before.waiting and not st.waiting and st.warming is not None:
+            term.say(f"the board's temperature has settled ({st.warming:+.1f} degC a minute): the poses can be held")
         for face in st.captured[len(before.captured):]:
             term.say(f"captured {face} ({len(st.captured)} of {st.total})"
                      + (f"; now {'make' if st.asked == TILTED else 'put'} {_face(st.asked)}" if st.asked else ""))
@@ -260,8 +266,10 @@ def finish_accel(board_id: str, procedure: AccelProcedure, status: AccelStatus,
         missing = [f for f in FACES if f not in status.captured]
         left = status.leaning - status.leaned
         todo = missing + ([f"{left} leaning pose{'s' if left > 1 else ''}"] if left else [])
+        warm = (f"; the board was still warming ({status.warming:+.1f} degC a minute): leave it on a few minutes "
+                "and run this again") if status.waiting and status.warming is not None else ""
         raise CalibrationRefused(f"only {len(status.captured)} of {status.total} poses captured in {seconds:g} s "
-                                 f"({', '.join(todo)} still to do); nothing was saved")
+                                 f"({', '.join(todo)} still to do){warm}; nothing was saved")
     result = procedure.result()
     if not result.ok:
         raise CalibrationRefused(f"{result.message}; nothing was saved")
@@ -318,9 +326,9 @@ def finish_mag(board_id: str, procedure: MagProcedure, status: MagStatus,
     aligned = result.alignment
     values = {"coverage": status.coverage, "mag_hard_iron": fitted.mag_hard_iron.tolist(),
               "mag_soft_iron": fitted.mag_soft_iron.tolist(), **figures,
-              "alignment_deg": aligned.turn_deg, "alignment_problem": aligned.problem}
+              "alignment_deg": aligned.turn_deg, "alignment_problem": aligned.problem, "noise_ut": result.noise_ut}
     line = (f"magnetometer: hard iron ({_numbers(fitted.mag_hard_iron, '{:+.1f}')}) uT, soft iron rows "
-            f"{_rows(fitted.mag_soft_iron)}; residual {result.residual_ut:.2f} uT, field "
+            f"{_rows(fitted.mag_soft_iron)}; residual {result.residual_ut:.2f} uT (noise {result.noise_ut:.2f}), field "
             f"{result.strength_ut:.1f} uT, dip {result.dip_deg:.1f} deg; {aligned.describe()}")
     return fitted, C.ProcedureRecord.now("mag", figures), values, [line]
 
@@ -383,7 +391,8 @@ class VirtualMaker:
     The board's errors are :func:`tracker.sim.realistic_errors` with the figures
     given (None: its typical ones).
     The maker's slips: a magnet brought near at ``magnet_at`` s, the board
-    bumped at ``nudges``, the first face laid down twice (``repeat_face``).
+    bumped at ``nudges``, the first face laid down twice (``repeat_face``). The board had been
+    on ``powered_s`` before (0: just plugged in, its die warming: :mod:`tracker.warming`).
     """
 
     seed: int = 0
@@ -394,6 +403,7 @@ class VirtualMaker:
     magnet_at: float | None = None
     nudges: tuple[float, ...] = ()
     repeat_face: bool = False
+    powered_s: float = 0.0
 
     def maker(self) -> SimulatedMaker:
         from .maker_sim import Magnet, SimulatedMaker
@@ -403,7 +413,7 @@ class VirtualMaker:
         errors = realistic_errors(noise_scale=self.noise_scale, **{k: v for k, v in figures.items() if v is not None})
         magnet = Magnet(self.magnet_at, self.magnet_at + 10.0) if self.magnet_at is not None else None
         return SimulatedMaker(errors, seed=self.seed, magnet=magnet, nudges=self.nudges,
-                              repeat_face=self.repeat_face)
+                              repeat_face=self.repeat_face, powered_s=self.powered_s)
 
 
 @contextlib.contextmanager

@@ -29,8 +29,10 @@ It refuses, each with one line:
   second difference of consecutive readings, m_k+1 - 2 m_k + m_k-1, has
   variance 6 sigma^2 per axis for white noise of variance sigma^2, while a
   board turning at 90 deg/s changes it by 0.003 uT (omega^2 |h| dt^2 at 200
-  Hz). A kept reading, the mean of ``average`` raw ones, then lies about
-  sigma_r = sigma / sqrt(average) off the ellipsoid along its radius, and the
+  Hz); a reading held from the one before (the AK8963 measures at 100 Hz,
+  the board may sample at 200) is left out (:class:`_Noise`). A kept reading,
+  the mean of ``average`` raw ones, n of them fresh, then lies about
+  sigma_r = sigma / sqrt(n) off the ellipsoid along its radius, and the
   RMS over hundreds of readings is within a few percent of sigma_r. A fit
   whose residual exceeds ``noise_factor`` sigma_r + ``residual_floor_ut``
   (or ``max_residual`` of the strength, :data:`tracker.magfit.MAX_RESIDUAL`,
@@ -153,13 +155,16 @@ class MagStatus:
 class MagResult:
     """The calibration found: ``fit`` (hard iron ``fit.offset``, soft iron ``fit.soft_iron``), the
     calibrated field's strength and dip below the horizontal (degrees), the fit's residual (RMS
-    of |calibrated| - strength, uT) and the turn onto the accelerometer's frame (``alignment``)."""
+    of |calibrated| - strength, uT), the turn onto the accelerometer's frame (``alignment``) and
+    the noise a kept reading carries as measured (sigma_r of the module docstring, uT: what the
+    residual was judged against)."""
 
     fit: MagFit
     strength_ut: float
     dip_deg: float
     residual_ut: float
     alignment: Alignment = field(default_factory=Alignment)
+    noise_ut: float = 0.0
 
     @property
     def soft_iron(self) -> Array:
@@ -196,19 +201,36 @@ class _DipSums:
 
 @dataclass
 class _Noise:
-    """The magnetometer's white noise from second differences of consecutive readings (module docstring)."""
+    """The magnetometer's white noise from second differences of consecutive readings (module docstring).
+
+    A reading the same as the one before is the one before, held: the AK8963
+    measures at 100 Hz and the firmware sends its latest measurement with every
+    sample (firmware/energyball/imu.h), so at 200 Hz each comes twice. Held
+    readings add no noise of their own: they are left out of the differences
+    (counted in, they would halve the second differences' variance and more),
+    and a mean of ``average`` readings holds only its fresh ones' noise
+    (:meth:`mean_sigma_ut`). A fresh measurement equal to the last on all three
+    axes (a chance of some 1e-4 with 0.6 uT of noise in 0.15-uT counts) is
+    taken as held too, which changes nothing measurable.
+    """
 
     CLIP_UT = 20.0  # a second difference beyond this (a jump) counts as this
 
-    previous: list[tuple[float, float, float]] = field(default_factory=list)  # the last two readings
+    previous: list[tuple[float, float, float]] = field(default_factory=list)  # the last two fresh readings
     sum_sq: float = 0.0
     n: int = 0
+    seen: int = 0  # readings, held ones included
+    fresh: int = 0  # readings that were new measurements
 
     def restart(self) -> None:
         """The next reading does not follow the last (a gap in the samples)."""
         self.previous = []
 
     def add(self, m: tuple[float, float, float]) -> None:
+        self.seen += 1
+        if self.previous and m == self.previous[-1]:
+            return  # held
+        self.fresh += 1
         if len(self.previous) == 2:
             (a0, a1, a2), (b0, b1, b2) = self.previous
             d = ((m[0] - 2.0 * b0 + a0) ** 2 + (m[1] - 2.0 * b1 + a1) ** 2 + (m[2] - 2.0 * b2 + a2) ** 2)
@@ -221,6 +243,11 @@ class _Noise:
     def sigma_ut(self) -> float:
         """The noise's standard deviation per axis, uT (0 before three readings)."""
         return math.sqrt(self.sum_sq / (18.0 * self.n)) if self.n else 0.0
+
+    def mean_sigma_ut(self, average: int) -> float:
+        """The noise of a mean of ``average`` consecutive readings, uT per axis: sigma over the root of the
+        fresh readings among them (the share seen so far)."""
+        return self.sigma_ut() / math.sqrt(max(1.0, average * self.fresh / self.seen)) if self.seen else 0.0
 
 
 class MagProcedure:
@@ -366,7 +393,7 @@ class MagProcedure:
         if fit.field_ut > p.field_max_ut:
             return (f"a magnet or iron near the board: the field is {fit.field_ut:.0f} uT and {earth}; "
                     f"keep magnets and steel away and start again")
-        noise = self._noise.sigma_ut() / math.sqrt(p.average)
+        noise = self._noise.mean_sigma_ut(p.average)
         limit = min(p.max_residual * fit.field_ut, p.noise_factor * noise + p.residual_floor_ut)
         if fit.residual_ut > limit:
             return (f"the field changed during the procedure: the readings leave a residual of "
@@ -405,7 +432,8 @@ class MagProcedure:
         if problem:
             raise MagFitError(problem)
         alignment = self._alignment(fit)
-        return MagResult(fit, fit.field_ut, self._dip.dip_deg(fit, alignment.rotation), fit.residual_ut, alignment)
+        return MagResult(fit, fit.field_ut, self._dip.dip_deg(fit, alignment.rotation), fit.residual_ut, alignment,
+                         self._noise.mean_sigma_ut(self.params.average))
 
     def _alignment(self, fit: MagFit) -> Alignment:
         """The turn onto the accelerometer's frame, from the accelerometer procedure's still poses (module

@@ -66,7 +66,7 @@ from .magfit import MagFitError
 from .motion import SensorReading
 from .protocol import MAG_UT_PER_COUNT, RawSample, temp_counts
 from .sim import (Chain, LinkSpec, Motion, SampleStream, SensorErrors, SensorSpec, Simulator,
-                  die_rise_c, realistic_errors)
+                  die_rise_c, die_temperature, realistic_errors)
 from .sim_board import ACC_FS_G, GYR_FS_DPS
 from .thermal import ThermalParams, ThermalProcedure, ThermalResult, ThermalStatus, thermal_calibration
 
@@ -215,14 +215,15 @@ class SimulatedMaker:
     ``errors``: the board's (:func:`maker_errors`); ``seed``: the board's error
     draws (the same seed as a :class:`tracker.sim.Simulator` gives the same
     board) and the maker's own choices; ``rate_hz``: the board's sample rate;
-    ``power_on``: which power-on of the board this is (:class:`tracker.sim.ErrorModel`'s warm-up).
+    ``power_on``: which power-on of the board this is (:class:`tracker.sim.ErrorModel`'s warm-up);
+    ``powered_s``: how long it had been on before the maker starts (0: just plugged in, its die warming).
     Time is the board's clock (seconds since power-up); when the board powers
     up again (its clock restarts) the maker's world goes on where it was.
     """
 
     def __init__(self, errors: SensorErrors | None = None, seed: int = 0, rate_hz: float = RATE_HZ,
                  magnet: Magnet | None = None, nudges: Sequence[float] = (), repeat_face: bool = False,
-                 power_on: int = 0) -> None:
+                 power_on: int = 0, powered_s: float = 0.0) -> None:
         self.errors = maker_errors(errors)
         self.seed, self.rate_hz = seed, rate_hz
         self.magnet, self.nudges, self.repeat_face = magnet, tuple(nudges), repeat_face
@@ -231,7 +232,7 @@ class SimulatedMaker:
         self._plan: tuple[_Segment, ...] = (_Move(-1.0, 0.0, start, start, "+z"),)
         self._simulator = Simulator(Chain((LinkSpec("board", 0.0),), (SensorSpec("imu", 0, (0.0, 0.0, 0.0)),)),
                                     Motion(self._root, lambda t: np.zeros((len(t), 0))), self.errors, seed=seed,
-                                    power_on=power_on)
+                                    power_on=power_on, powered_s=powered_s)
         self._stream: SampleStream = self._simulator.stream(rate_hz)
         self._block_n = max(BLOCK_MIN, int(BLOCK_S * rate_hz))  # samples per block
         self._cache = _Block(-1, [])
@@ -389,7 +390,7 @@ class SimulatedMaker:
         W = |det M|^(1/3) (M M^T)^(-1/2). gyro_bias: the offset at power-on; gyro_scale: the
         inverse of the gyroscope's drawn sensitivity matrix diag(s) + C. gyro_thermal and acc_thermal: this
         power-on's warm-ups over the die's rise (:func:`tracker.sim.die_temperature`), about the
-        temperature at power-on (acc_offset, gyro_bias: the offsets there).
+        temperature at power-on (acc_offset, gyro_bias: the offsets there, whenever the maker started).
         """
         data = self._simulator.stream(self.rate_hz).block(0, 1)
         d, o_m = data.scale["mag"][0], data.offset["mag"][0]
@@ -401,13 +402,14 @@ class SimulatedMaker:
         slope, acc_slope = ((data.warmup["gyr"][0] / rise, data.warmup["acc"][0] / rise) if gyr.warmup
                             else (np.zeros(3), np.zeros(3)))
         acc = np.linalg.inv(np.diag(data.scale["acc"][0]) + data.cross["acc"][0])
+        power_on_c = die_temperature(gyr, np.zeros(()))
         return BoardCalibration(gyro_bias=data.offset["gyr"][0], acc_offset=data.offset["acc"][0],
                                 acc_scale=np.diag(acc).copy(), acc_misalignment=acc / np.diag(acc)[None, :],
                                 mag_hard_iron=d * data.hard_iron[0] + o_m, mag_soft_iron=0.5 * (w + w.T),
-                                gyro_thermal=slope, gyro_thermal_ref_c=np.array(data.die_c[0]),
+                                gyro_thermal=slope, gyro_thermal_ref_c=power_on_c,
                                 gyro_scale=np.linalg.inv(np.diag(data.scale["gyr"][0]) + data.cross["gyr"][0]),
                                 acc_thermal=acc_slope,
-                                acc_offset_ref_c=np.array(data.die_c[0]))
+                                acc_offset_ref_c=power_on_c)
 
 
 def calibration_errors(fitted: BoardCalibration, truth: BoardCalibration) -> dict[str, float]:
@@ -472,20 +474,20 @@ class MakerRun:
 
 
 def run_maker(procedure: AccelProcedure | MagProcedure | ThermalProcedure, maker: SimulatedMaker,
-              limit_s: float = 180.0, pull_cable: tuple[float, float] | None = None,
+              limit_s: float = 600.0, pull_cable: tuple[float, float] | None = None,
               watch: Callable[[float, AccelStatus | MagStatus | ThermalStatus], None] | None = None) -> MakerRun:
     """Run ``procedure`` offline on ``maker``'s board, as fast as the simulator goes.
 
     Each sample of the board (its rate, quantised as the firmware does) is fed
     to the procedure and the maker follows the status, until the accelerometer
     procedure (or the warm-up's) is done or the magnetometer procedure is ready or sees a problem
-    (then it is finished), or ``limit_s`` of the maker's time pass.
+    (then it is finished), or ``limit_s`` of the maker's time pass from its start.
     ``pull_cable`` = (at_s, for_s): the cable is pulled at ``at_s`` (maker's
     time) for ``for_s``: the procedure is told (``interrupted()``), and the
     board powers up again, its clock from zero. ``watch`` sees every status.
     """
     run = MakerRun(None, "")
-    k0, k, seq = 0, 0, 0
+    k0, k, seq, start = 0, 0, 0, maker.now
     status: AccelStatus | MagStatus | ThermalStatus = procedure.status
     while True:
         t = (k - k0) / maker.rate_hz
@@ -505,11 +507,11 @@ def run_maker(procedure: AccelProcedure | MagProcedure | ThermalProcedure, maker
         if isinstance(status, (AccelStatus, ThermalStatus)) and status.done \
                 or isinstance(status, MagStatus) and (status.ready or status.problem):
             break
-        if maker.now >= limit_s:
+        if maker.now - start >= limit_s:
             run.error = f"the procedure did not finish in {limit_s:g} s: {status.message}"
-            run.seconds = maker.now
+            run.seconds = maker.now - start
             return run
-    run.seconds = maker.now
+    run.seconds = maker.now - start
     try:
         run.result = procedure.finish() if isinstance(procedure, MagProcedure) else procedure.result()
     except MagFitError as e:

@@ -524,8 +524,8 @@ class _ErrorProcess:
     """One kind of sensor's errors as a function of the sample index (same index, same error)."""
 
     def __init__(self, model: ErrorModel, shape: tuple[int, ...], rate_hz: float,
-                 seed: int, kind: int, power_on: int = 0) -> None:
-        self.model, self.shape, self._key = model, shape, (seed, kind)
+                 seed: int, kind: int, power_on: int = 0, powered_s: float = 0.0) -> None:
+        self.model, self.shape, self._key, self._powered_s = model, shape, (seed, kind), powered_s
         rng = _rng(seed, kind, 0)
         self.offset = rng.uniform(-model.offset_max, model.offset_max, shape)
         self.scale = 1.0 + rng.uniform(-model.scale_max, model.scale_max, shape)
@@ -589,7 +589,7 @@ class _ErrorProcess:
         return np.ceil(ticks * ratio - 1e-9).astype(np.int64)
 
     def _warmup_curve(self, k: NDArray[np.int64]) -> Array:
-        return warmup_curve(k / self.rate_hz, self.model.warmup_tau_s)
+        return warmup_curve(k / self.rate_hz + self._powered_s, self.model.warmup_tau_s)
 
 
 def warmup_curve(t: Array, tau_s: float) -> Array:
@@ -766,6 +766,7 @@ class Simulator:
     earth_field_ut: Vec3 = EARTH_FIELD_UT
     seed: int = 0  # the board's errors (and the room's field)
     power_on: int = 0  # which power-on of that board: the unexplained share of its warm-up (ErrorModel)
+    powered_s: float = 0.0  # how long the board had been on before t = 0: its warm-up (and die) that far along
 
     def _pose(self, t: Array) -> tuple[Array, Array]:
         """The root's orientations and the hinge angles (M, L - 1) at ``t`` (M,), checked."""
@@ -860,7 +861,8 @@ class SampleStream:
         n = len(sim.chain.sensors)
         shapes = {"gyr": (n, 3), "acc": (n, 3), "mag": (n, 3), "flex": ()}
         self._processes = {kind: _ErrorProcess(getattr(sim.errors, kind), shapes[kind], rate_hz,
-                                               sim.seed, i, sim.power_on) for i, kind in enumerate(_KINDS)}
+                                               sim.seed, i, sim.power_on, sim.powered_s)
+                           for i, kind in enumerate(_KINDS)}
         self._magnetic = _MagneticProcess(sim.errors.magnetic, n, sim.seed)
         self._flex = _FlexProcess(sim.errors.flex_dynamics, sim.flex_sensor.bent_deg, rate_hz, sim.seed)
         dlpf = Dlpf.for_rate(rate_hz)
@@ -914,7 +916,8 @@ class SampleStream:
                        truth, {kind: q.offset for kind, q in p.items()},
                        {kind: q.scale for kind, q in p.items()}, {kind: q.cross for kind, q in p.items()},
                        {kind: q.warmup for kind, q in p.items()},
-                       mag.hard_iron, mag.soft_iron, flex, die_temperature(self.sim.errors.gyr, truth.t))
+                       mag.hard_iron, mag.soft_iron, flex,
+                       die_temperature(self.sim.errors.gyr, truth.t + self.sim.powered_s))
 
 
 @dataclass

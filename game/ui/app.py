@@ -841,11 +841,22 @@ class BoardSetupScreen:
         where = "leaning" if status.up == TILTED else f"on {status.up}" if status.up else ""
         still = "every pose held still" if status.done else \
             f"still {status.still_s:.1f} s of {hold:.1f}" + (f" {where}" if where else "")
-        r.draw_meter(surface, pygame.Rect(side.left + 16, side.top + 100, side.width - 32, 48), still,
-                     1.0 if status.done else status.still_s / hold, GREEN)
+        meter = pygame.Rect(side.left + 16, side.top + 100, side.width - 32, 48)
+        if status.waiting:
+            self.draw_warming(surface, meter, status.warming, setup.accel.params.warming.max_c_per_min)
+        else:
+            r.draw_meter(surface, meter, still, 1.0 if status.done else status.still_s / hold, GREEN)
         r.draw_meter(surface, pygame.Rect(side.left + 16, side.top + 180, side.width - 32, 48),
                      f"poses captured: {len(status.captured)} of {status.total}", len(status.captured) / status.total,
                      YELLOW)
+
+    def draw_warming(self, surface: pygame.Surface, rect: pygame.Rect, rate: float | None, limit: float) -> None:
+        """The die's warming while the poses wait for it (tracker.warming): full once it is under ``limit``."""
+        if rate is None:
+            self.game.renderer.draw_meter(surface, rect, "measuring the board's warming", 0.0, YELLOW)
+            return
+        self.game.renderer.draw_meter(surface, rect, f"warming {rate:.1f} degC/min (poses wait until under {limit:g})",
+                                      min(1.0, limit / max(abs(rate), 1e-9)), YELLOW)
 
     def draw_mag(self, surface: pygame.Surface, rect: pygame.Rect, setup: BoardSetup) -> None:
         """The sphere of directions filling in, the coverage against what is needed, the field now."""

@@ -262,7 +262,7 @@ class BoardSetup:
             result = self.mag.finish()
         except MagFitError as e:
             return self._fail(MAG, str(e))
-        self.figures = [f"residual {result.residual_ut:.2f} uT",
+        self.figures = [f"residual {result.residual_ut:.2f} uT (noise {result.noise_ut:.2f})",
                         f"field strength {result.strength_ut:.1f} uT, dip {result.dip_deg:.1f} deg",
                         "hard iron " + ", ".join(f"{v:+.1f}" for v in result.fit.offset) + " uT",
                         result.alignment.describe()]

@@ -175,7 +175,7 @@ def shots(out: str | os.PathLike) -> list[Path]:
 
 def board_setup_shots(app: App, save: Callable[[str], None]) -> None:
     """The board setup with a simulated maker in simulated time, a few moments of each procedure:
-    a face held still, the board turning to the next, a leaning pose held, the accelerometer's result; the sphere a
+    the board just plugged in, warming, a face held still, the board turning to the next, a leaning pose held, the accelerometer's result; the sphere a
     third and two thirds covered, the magnetometer's result; the board warming, the warm-up's result."""
     from tracker.maker_sim import SimulatedMaker
 
@@ -185,6 +185,7 @@ def board_setup_shots(app: App, save: Callable[[str], None]) -> None:
     screen = BoardSetupScreen(app.game)
     app.screen = screen
     moments: list[tuple[str, Callable[[], bool]]] = [
+        ("board_setup_accel_warming", lambda: accel().waiting and accel().warming is not None),
         ("board_setup_accel_hold", lambda: len(accel().captured) == 2 and accel().still_s > 1.2),
         ("board_setup_accel_turn", lambda: len(accel().captured) == 4 and accel().up is None),
         ("board_setup_accel_lean", lambda: len(accel().captured) == 7 and accel().still_s > 1.2),

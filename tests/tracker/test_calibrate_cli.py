@@ -81,7 +81,7 @@ class Runs:
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory) -> Runs:
     base = tmp_path_factory.mktemp("calibrate")
-    homes = {name: base / name for name in ("both", "noisy", "magnet", "short", "faces", "warm")}
+    homes = {name: base / name for name in ("both", "noisy", "magnet", "short", "faces", "warming", "warm")}
     folder = boards(homes["both"])
     folder.mkdir(parents=True)
     (folder / f"{BOARD}.json").write_bytes(DAMAGED)  # damaged before both procedures start
@@ -89,19 +89,21 @@ def runs(tmp_path_factory) -> Runs:
     C.save(good, boards(homes["magnet"]))
     before = {"magnet": (boards(homes["magnet"]) / f"{BOARD}.json").read_bytes()}
     specs = {
-        # the accelerometer with every slip a maker makes: bumped mid-pose, a face laid down twice,
-        # the cable pulled for 1.5 s; and the magnetometer at the catalogue's extremes, in the same home
-        "accel": ("both", "calibrate", "accel", "--virtual", "--json", "--nudge", "1.5", "--repeat-face",
-                  "--unplug", "1.5@8", "--seed", "1"),
+        # the accelerometer with every slip a maker makes (on a board on for ten minutes: 10 s measuring its
+        # warming, then the poses): bumped mid-pose, a face laid down twice, the cable pulled for 1.5 s; and
+        # the magnetometer at the catalogue's extremes, in the same home
+        "accel": ("both", "calibrate", "accel", "--virtual", "--json", "--nudge", "11.5", "--repeat-face",
+                  "--unplug", "1.5@24", "--seed", "1", "--powered-for", "600"),
         "mag": ("both", "calibrate", "mag", "--virtual", "--json", "--seed", "2", *EXTREMES),
-        # the accelerometer at twice the data sheet's noise (worst_plausible's noise_scale), and the
-        # magnetometer of a typical board
+        # the accelerometer at twice the data sheet's noise (worst_plausible's noise_scale) on a board just
+        # plugged in (its poses wait some 80 s for the die to settle), and the magnetometer of a typical board
         "accel_noisy": ("noisy", "calibrate", "accel", "--virtual", "--json", "--noise-scale", "2", "--seed", "3"),
         "mag_typical": ("noisy", "calibrate", "mag", "--virtual", "--json", "--seed", "4"),
         # refusals: a magnet brought near, too little turning in the time given, too few faces
         "magnet": ("magnet", "calibrate", "mag", "--virtual", "--magnet", "3"),
         "short": ("short", "calibrate", "mag", "--virtual", "--seconds", "4"),
         "faces": ("faces", "calibrate", "accel", "--virtual", "--seconds", "3"),
+        "warming": ("warming", "calibrate", "accel", "--virtual", "--seconds", "30"),
         "warm": ("warm", "calibrate", "thermal", "--virtual", "--seconds", "3"),
     }
     procs = {name: start(homes[spec[0]], *spec[1:]) for name, spec in specs.items()}
@@ -137,6 +139,15 @@ def test_accel_recovers_the_boards_errors_and_saves_them(runs):
         assert file["procedures"]["accel"] == {"done_at": report["done_at"], "residual_m_s2": report["residual_m_s2"]}
         stdout = runs.results[name].stdout
         assert stdout.strip().startswith("{")  # JSON only on stdout
+
+
+def test_a_board_just_plugged_in_holds_no_pose_until_its_die_settles(runs):
+    said = runs.results["accel_noisy"].stderr.splitlines()
+    warming = next(i for i, line in enumerate(said) if line.startswith("the board is warming"))
+    assert "degC a minute: the poses wait until that is under 1" in said[warming]
+    settled = next(i for i, line in enumerate(said) if line.startswith("the board's temperature has settled"))
+    assert warming < settled < next(i for i, line in enumerate(said) if line.startswith("captured +z"))
+    assert not any(line.startswith("the board is warming") for line in runs.results["accel"].stderr.splitlines())
 
 
 def test_mag_recovers_hard_and_soft_iron_at_the_extremes_and_typically(runs):
@@ -189,7 +200,7 @@ def test_the_maker_is_told_of_every_slip_and_the_procedure_resumes_after_a_pulle
     lost = said.index("the board went away (cable pulled?)")
     back = said.index("the board is back: carrying on")
     assert lost < back < said.index("captured -y") and said.count("captured +z (1 of 10)") == 1
-    assert "the board moved during the pose" in said  # the bump at 1.5 s, on +z
+    assert "the board moved during the pose" in said  # the bump 1.5 s into the first hold, on +z
     assert "+z is already captured: put -z up" in said  # the face laid down again after its capture
     assert "Traceback" not in said
 
@@ -202,10 +213,15 @@ def test_refusals_are_one_clear_line_and_change_no_file(runs):
     refusal(runs.results["short"], "calibrate mag: after 4 s, too little coverage", "nothing was saved")
     refusal(runs.results["faces"], "calibrate accel", "of 10 poses captured in 3 s", "still to do",
             "nothing was saved")
+    line = refusal(runs.results["warming"], "calibrate accel", "0 of 10 poses captured in 30 s",
+                   "the board was still warming (+", "degC a minute): leave it on a few minutes", "nothing was saved")
+    # the typical board's die warms 1.7 degC a minute at power-on, with a time constant of 150 s
+    # (tracker.sim.ErrorModel): the slope over the first 30 s is about 1.7 exp(-15 / 150) = 1.5
+    assert 1.3 < float(line.split("warming (+")[1].split()[0]) < 1.7, line
     refusal(runs.results["warm"], "calibrate thermal: only 3 s of the board lying still (the fit needs 120)",
             "nothing was saved")
     assert "die 22.0" in runs.results["warm"].stderr  # the virtual board's TEMP frames: a cold die
-    for name in ("short", "faces", "warm"):
+    for name in ("short", "faces", "warming", "warm"):
         assert not boards(runs.homes[name]).exists()
 
 

@@ -16,7 +16,7 @@ from tracker.maker_sim import (Magnet, SimulatedMaker, calibration_errors, extre
                                run_maker)
 from tracker.motion import EARTH_FIELD_UT
 from tracker.protocol import MAG_UT_PER_COUNT, RawSample
-from tracker.sim import Chain, LinkSpec, Motion, SensorSpec, Simulator, realistic_errors
+from tracker.sim import MAG_NOISE_RMS_UT, MAG_RATE_HZ, Chain, LinkSpec, Motion, SensorSpec, Simulator, realistic_errors
 
 RATE = 200.0
 
@@ -36,6 +36,18 @@ def test_the_procedure_recovers_hard_and_soft_iron(errors, seed):
     assert err["mag_soft_iron_error_pct"] < 2.0  # of 5 to 20 %
     assert run.result.residual_ut < 1.0 and run.result.fit.model == magfit.ELLIPSOID
     assert run.result.fit.coverage >= 0.7
+
+
+@pytest.mark.parametrize("errors, rms_ut", [(maker_errors(), MAG_NOISE_RMS_UT), (extreme_errors(), 2 * MAG_NOISE_RMS_UT)],
+                         ids=["typical", "extreme"])
+def test_the_noise_measured_is_the_magnetometers_its_held_readings_counted_once(errors, rms_ut):
+    # The AK8963 measures at 100 Hz (tracker.sim.MAG_RATE_HZ) and the board samples at 200: each measurement comes
+    # twice. A kept reading, the mean of 10 samples, holds 5 measurements: its noise is rms / sqrt(5) per axis.
+    maker = SimulatedMaker(errors, seed=3)
+    run = run_maker(MagProcedure(), maker)
+    assert maker.rate_hz == 2 * MAG_RATE_HZ and run.error == ""
+    assert run.result.noise_ut == pytest.approx(rms_ut / math.sqrt(5.0), rel=0.05)
+    assert run.result.residual_ut < 1.5 * run.result.noise_ut + 0.3  # judged no change of the field
 
 
 def test_strength_and_dip_are_the_fields():

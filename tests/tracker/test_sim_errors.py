@@ -84,6 +84,20 @@ def test_the_warm_up_adds_to_the_drawn_offset_and_leaves_the_other_draws_alone()
     assert np.abs(b.gyr - a.gyr - curve[:, None, None] * b.warmup["gyr"]).max() <= lsb + 1e-12
 
 
+def test_a_board_on_for_a_while_is_that_far_along_its_warm_up_and_its_die_that_warm():
+    # powered_s = P: sample k is where a board just powered up is at k / rate + P, the draws unchanged
+    errors = realistic_errors(gyro_warmup_dps=3.0)
+    fresh = Simulator(arm_chain(), still(), errors, seed=6).simulate(400.0, 10.0)
+    later = Simulator(arm_chain(), still(), errors, seed=6, powered_s=300.0).simulate(100.0, 10.0)
+    np.testing.assert_array_equal(later.die_c, fresh.die_c[3000:])
+    np.testing.assert_array_equal(later.warmup["gyr"], fresh.warmup["gyr"])
+    # the warm-up part of the gyroscope's error (the noise is drawn per sample index, so compare the curve's)
+    tau, norm = 150.0, 1 - math.exp(-600.0 / 150.0)
+    shifted = (1 - np.exp(-(later.t + 300.0) / tau)) / norm
+    lsb, noise = errors.gyr.resolution, (later.gyr - later.truth.gyr)[:, 0] - shifted[:, None] * later.warmup["gyr"][0]
+    assert np.abs(noise.mean(axis=0) - later.offset["gyr"][0]).max() < 0.1 * np.abs(later.warmup["gyr"][0]).max() + lsb
+
+
 def test_a_warm_up_without_a_time_constant_is_a_clear_error():
     errors = SensorErrors(gyr=ErrorModel(warmup=0.01, warmup_tau_s=0.0))
     with pytest.raises(ValueError, match="warm-up needs a time constant above 0 s"):

@@ -91,7 +91,7 @@ def test_board_setup_runs_both_procedures_with_the_simulated_maker_and_saves_the
     app.frame([], DT)  # the board says who it is: nothing saved yet
     assert app.game.board_id == "imu-71" and app.game.board_uncalibrated
     screen = open_board_setup(app)
-    run_until(app, lambda: phase_of(app) == ACCEL_DONE, 60 * 120)
+    run_until(app, lambda: phase_of(app) == ACCEL_DONE, 60 * 240)  # ~100 s waiting for the die
     path = home / "boards" / "imu-71.json"
     saved = json.loads(path.read_text())
     assert set(saved["procedures"]) == {"accel"} and saved["procedures"]["accel"]["residual_m_s2"] >= 0.0
@@ -200,7 +200,7 @@ def test_a_board_without_temperatures_fails_the_warm_up_with_its_reason_and_save
 def test_keys_skip_redo_and_leave(maker_app):
     app, _ = maker_app
     open_board_setup(app)
-    run_until(app, lambda: len(app.screen.setup.accel_status.captured) == 1, 60 * 30)
+    run_until(app, lambda: len(app.screen.setup.accel_status.captured) == 1, 60 * 150)
     app.frame([key(pygame.K_r)], DT)  # start the accelerometer again: nothing captured
     assert phase_of(app) == ACCEL and app.screen.setup.accel_status.captured == ()
     app.frame([key(pygame.K_m)], DT)  # straight to the magnetometer
@@ -219,7 +219,7 @@ def test_a_damaged_board_file_is_named_before_and_kept_beside_the_new_one(maker_
     screen = open_board_setup(app)
     app.frame([], DT)
     assert "damaged" in screen.setup.notice
-    run_until(app, lambda: phase_of(app) == ACCEL_DONE, 60 * 120)
+    run_until(app, lambda: phase_of(app) == ACCEL_DONE, 60 * 240)  # ~100 s waiting for the die
     assert (path.parent / "imu-71.json.damaged").read_text() == "{ not json"
     assert "damaged" in screen.setup.saved and json.loads(path.read_text())["procedures"]["accel"]
 
@@ -257,7 +257,11 @@ def test_virtual_board_setup_end_to_end_with_a_pulled_cable(home):
         board = app.game.virtual_board
         player = board.motion
         screen = open_board_setup(app)
-        run_until(app, lambda: len(screen.setup.accel_status.captured) == 2, 60 * 60, real_time=True)
+        # the board just powered up: the poses wait some 100 s for its die to settle (tracker.warming)
+        run_until(app, lambda: screen.setup.accel_status.waiting and screen.setup.accel_status.warming is not None,
+                  60 * 30, real_time=True)
+        assert "the board is warming" in screen.setup.message()
+        run_until(app, lambda: len(screen.setup.accel_status.captured) == 2, 60 * 180, real_time=True)
         assert board.motion is not player  # the maker has the board
         board.pull_cable()
         run_until(app, lambda: screen.setup.disconnected, 60 * 10, real_time=True)
