@@ -207,11 +207,13 @@ class _Noise:
     measures at 100 Hz and the firmware sends its latest measurement with every
     sample (firmware/energyball/imu.h), so at 200 Hz each comes twice. Held
     readings add no noise of their own: they are left out of the differences
-    (counted in, they would halve the second differences' variance and more),
-    and a mean of ``average`` readings holds only its fresh ones' noise
-    (:meth:`mean_sigma_ut`). A fresh measurement equal to the last on all three
-    axes (a chance of some 1e-4 with 0.6 uT of noise in 0.15-uT counts) is
-    taken as held too, which changes nothing measurable.
+    (counted in, every second difference spans one fresh step instead of two,
+    and its variance is 2 sigma^2 instead of 6), and a mean of ``average``
+    readings holds only its fresh ones' noise (:meth:`mean_sigma_ut`): counted
+    twice, sigma_r looked sqrt(6) smaller. A fresh measurement equal to the
+    last on all three axes (per axis a difference of 0.85 uT RMS rounds to no
+    0.15-uT count about 7 % of the time, so some 3e-4 for all three) is taken
+    as held too, which changes nothing measurable.
     """
 
     CLIP_UT = 20.0  # a second difference beyond this (a jump) counts as this

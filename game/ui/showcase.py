@@ -175,8 +175,9 @@ def shots(out: str | os.PathLike) -> list[Path]:
 
 def board_setup_shots(app: App, save: Callable[[str], None]) -> None:
     """The board setup with a simulated maker in simulated time, a few moments of each procedure:
-    the board just plugged in, warming, a face held still, the board turning to the next, a leaning pose held, the accelerometer's result; the sphere a
-    third and two thirds covered, the magnetometer's result; the board warming, the warm-up's result."""
+    the board just plugged in, its poses waiting for it to warm, a face held still, the board turning to the
+    next, a leaning pose held, the accelerometer's result; the sphere a third and two thirds covered, the
+    magnetometer's result; the board warming, the warm-up's result."""
     from tracker.maker_sim import SimulatedMaker
 
     dt = 1 / 60

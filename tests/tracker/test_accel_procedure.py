@@ -111,7 +111,8 @@ def test_the_result_is_refused_before_all_the_poses():
 def _sample(t: float, acc, gyr=(0.0, 0.0, 0.0), die_c: float | None = None) -> RawSample:
     a = tuple(counts(acc, acc_lsb(16)).tolist())
     g = tuple(counts(gyr, gyr_lsb(2000)).tolist())
-    return RawSample(t, round(t * 1e6), 0, a, g, (0, 0, 0), 0, temp_counts=None if die_c is None else temp_counts(die_c))
+    temp = None if die_c is None else temp_counts(die_c)
+    return RawSample(t, round(t * 1e6), 0, a, g, (0, 0, 0), 0, temp_counts=temp)
 
 
 def _lying(face_acc, start: float, seconds: float, gyr=(0.0, 0.0, 0.0)):
@@ -134,7 +135,8 @@ def test_a_face_is_captured_after_hold_s_still_and_recognised_by_gravity():
 def test_no_pose_is_held_before_the_dies_warming_is_measured_and_under_1_degc_a_minute(warming):
     procedure = AccelProcedure(AccelProcedureParams(hold_s=1.0))
     die = (lambda t: None) if warming is None else (lambda t: 30.0 + warming / 60.0 * t)
-    statuses = [procedure.feed(_sample(k / RATE, (0.0, 0.0, 9.8), die_c=die(k / RATE))) for k in range(round(30 * RATE))]
+    statuses = [procedure.feed(_sample(k / RATE, (0.0, 0.0, 9.8), die_c=die(k / RATE)))
+                for k in range(round(30 * RATE))]
     first = next((k / RATE for k, s in enumerate(statuses) if s.captured), None)
     if warming is None:  # a firmware before the TEMP frame: not waited for
         assert first is not None and 1.0 <= first <= 1.6 and not statuses[0].waiting

@@ -38,7 +38,8 @@ def test_the_procedure_recovers_hard_and_soft_iron(errors, seed):
     assert run.result.fit.coverage >= 0.7
 
 
-@pytest.mark.parametrize("errors, rms_ut", [(maker_errors(), MAG_NOISE_RMS_UT), (extreme_errors(), 2 * MAG_NOISE_RMS_UT)],
+@pytest.mark.parametrize("errors, rms_ut",
+                         [(maker_errors(), MAG_NOISE_RMS_UT), (extreme_errors(), 2 * MAG_NOISE_RMS_UT)],
                          ids=["typical", "extreme"])
 def test_the_noise_measured_is_the_magnetometers_its_held_readings_counted_once(errors, rms_ut):
     # The AK8963 measures at 100 Hz (tracker.sim.MAG_RATE_HZ) and the board samples at 200: each measurement comes
