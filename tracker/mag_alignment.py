@@ -32,6 +32,18 @@ of ``dot_noise``: the least squares of a maximum a posteriori fit, Bishop,
 from a board turned through too few orientations (two directions barely
 seen), or that asks for more than ``max_turn_deg``, is refused and the
 identity kept.
+
+How well a direction is seen. With the dip s unknown too, the samples'
+information about phi along a unit direction v is N v^T C v / dot_noise^2,
+C the covariance of the R h_k x u_k over the N samples (s takes their mean;
+the Schur complement of the normal equations), and the prior's is
+1 / prior^2. So the second best seen direction carries
+N lambda_2 (prior / dot_noise)^2 times the prior's information, lambda_2 C's
+middle eigenvalue; at ``min_information`` (3) its posterior spread is half
+the prior's, 1 / sqrt(1 + 3). Below that the fit is refused: the poses say
+little about two of the three directions. (Ten poses whose middle
+eigenvalue is 0.019 carry 33 priors' worth, a posterior spread of 0.26 deg,
+and are aligned; a fixed bound on lambda_2 of 0.02 refused them.)
 """
 
 from __future__ import annotations
@@ -51,10 +63,11 @@ class AlignmentParams:
 
     ``max_turn_deg``: the most the two frames may differ (the accelerometer's
     cross-axis terms turn its frame by about a degree; 5 deg is a board or a
-    fit gone wrong); ``min_spread``: the least spread the second best seen
-    direction of phi must have (the middle eigenvalue of the covariance of
-    R h x u over the samples: a board turned through all orientations gives
-    cos^2(dip) / 3 in every direction, 0.1 or more below a dip of 57 deg);
+    fit gone wrong); ``min_information``: the least information the second
+    best seen direction of phi must carry from the samples, in units of the
+    prior's (module docstring; a board turned through all orientations gives
+    lambda_2 = cos^2(dip) / 3, 0.1 or more below a dip of 57 deg: ten such
+    poses carry some 170 priors' worth);
     ``prior_deg``: the prior's spread of each component of phi (the
     accelerometer's frame turns by the antisymmetric part of its cross-axis
     terms, within +-2 %, about 1.1 deg); ``dot_noise``: one pose's misfit (its
@@ -63,7 +76,7 @@ class AlignmentParams:
     """
 
     max_turn_deg: float = 5.0
-    min_spread: float = 0.02
+    min_information: float = 3.0
     prior_deg: float = 1.5
     dot_noise: float = 0.002
     iterations: int = 4
@@ -111,11 +124,12 @@ def fit_alignment(field_ut: Array, specific_force: Array, params: AlignmentParam
     h = field_ut / np.linalg.norm(field_ut, axis=1, keepdims=True)
     u = specific_force / np.linalg.norm(specific_force, axis=1, keepdims=True)
     east = np.cross(h, u)
-    spread = float(np.linalg.eigvalsh(np.cov(east, rowvar=False, bias=True))[1]) if len(u) > 3 else 0.0
-    if spread < params.min_spread:
+    middle = float(np.linalg.eigvalsh(np.cov(east, rowvar=False, bias=True))[1]) if len(u) > 3 else 0.0
+    information = len(u) * middle * (math.radians(params.prior_deg) / params.dot_noise) ** 2
+    if information < params.min_information:
         return Alignment(problem=f"the board was not turned through enough orientations to align the "
-                                 f"magnetometer with the accelerometer (spread {spread:.3f}, "
-                                 f"{params.min_spread:g} needed)")
+                                 f"magnetometer with the accelerometer (the poses see a second direction "
+                                 f"{information:.1f} times as well as the prior, {params.min_information:g} needed)")
     weight = params.dot_noise / math.radians(params.prior_deg)  # the prior's rows (module docstring)
     prior = np.hstack([weight * np.eye(3), np.zeros((3, 1))])
     rotation, s, phi = np.eye(3), 0.0, np.zeros(3)

@@ -63,6 +63,21 @@ def test_an_unseen_direction_is_held_by_the_prior_and_poses_alike_or_too_large_a
     assert "would turn 7.9 deg" in far.problem  # (the prior's pull)
 
 
+@pytest.mark.parametrize("dot_noise, ok", [(0.014, True), (0.016, False)])
+def test_a_second_direction_is_seen_well_enough_once_it_carries_three_priors_worth(dot_noise, ok):
+    """Eight poses flat, 45 deg of heading apart: the room's east seen from the board is cos(dip) (cos k 45,
+    sin k 45, 0), whose covariance has cos^2(dip) / 2 = 0.125 along x and y (dip 60 deg) and 0 along z. The
+    second best seen direction then carries 8 x 0.125 (prior / dot_noise)^2 = (prior / dot_noise)^2 priors'
+    worth: at least 3 while dot_noise <= prior / sqrt(3) = 0.0151 rad for the prior of 1.5 deg."""
+    flat = Rotation.from_euler("z", 45.0 * np.arange(8)[:, None], degrees=True)
+    field, up = _poses(flat, Rotation.from_rotvec(np.radians([0.5, -0.5, 0.0])))
+    found = fit_alignment(field, up, AlignmentParams(dot_noise=dot_noise))
+    information = (math.radians(1.5) / dot_noise) ** 2
+    assert found.ok == ok and (information >= 3.0) == ok
+    if not ok:
+        assert f"a second direction {information:.1f} times as well as the prior, 3 needed" in found.problem
+
+
 def test_the_procedures_align_the_magnetometer_with_the_accelerometers_frame():
     """On simulated boards whose accelerometer's cross-axis terms turn its calibrated frame: the soft iron
     saved, in the accelerometer's frame (calibration_errors), is closer to the truth aligned than not."""
