@@ -197,7 +197,6 @@ class AccelProcedure:
         self._turns: list[Turn] = []
         self._die: float | None = None  # the die's temperature at the latest sample (degC; None: not sent)
         self._warming = DieWarming(params.warming)
-        self._waiting = False  # the latest sample's: poses wait for the die to settle
         self._pose_die: dict[str, float | None] = {}  # ... when each pose was captured
         self._pose_mag: dict[str, Array] = {}  # the magnetometer's mean raw reading over each pose, uT
         self._leans: dict[str, Array] = {}  # each leaning pose's direction of gravity (unit, raw)
@@ -265,9 +264,8 @@ class AccelProcedure:
         if self._asked() is None:
             return self._status
         self._die = sample.die_c
-        if sample.die_c is not None:
-            self._warming.update(t, sample.die_c)
-        self._waiting = sample.die_c is not None and not self._warming.settled
+        if self._die is not None:
+            self._warming.update(t, self._die)
         gap = math.inf if self._last_t is None else t - self._last_t
         self._last_t = t
         up, tilt = pose_label(acc)
@@ -355,6 +353,12 @@ class AccelProcedure:
             self._moved = f"the board moved during the pose ({moved})"
         h.clear()
         h.since = t
+
+    @property
+    def _waiting(self) -> bool:
+        """Whether the poses wait for the die to settle (module docstring): a board that sends its
+        temperature, not yet measured long enough or warming too fast."""
+        return self._die is not None and not self._warming.settled
 
     def _ask(self, asked: str) -> str:
         """The line asking for the pose ``asked``."""
