@@ -295,7 +295,6 @@ def test_a_tremor_at_rest_still_gives_the_bias_at_rest():
     np.testing.assert_allclose(f.get_state().bias, bias, atol=math.radians(0.05))
 
 
-
 def raises(seed: int, duration: float) -> Motion:
     """The arm raised forward by 90 deg (about the board's x) and lowered again, each move 0.5-1 s
     (minimum jerk), each pose held 3-8 s: a player's aims and rests, without tremor or sway."""
