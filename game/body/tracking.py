@@ -44,7 +44,8 @@ class Tracking:
     use_magnetometer: bool = True
     board: BoardCalibration = field(default_factory=BoardCalibration)
     flex_calibration: FlexCalibration | None = None
-    filter: Filter = field(default_factory=lambda: for_mpu9250(P.BOOT_RATE_HZ))  # another: tracker.fusion.make
+    # at_shoulder: ``lever`` moves the accelerometer to the shoulder; another filter: tracker.fusion.make
+    filter: Filter = field(default_factory=lambda: for_mpu9250(P.BOOT_RATE_HZ, at_shoulder=True))
     flex: FlexTracker = field(init=False)
     anchor: HeadingAnchor = field(default_factory=HeadingAnchor)  # "forward" as the field's heading settles
     lever: LeverArm = field(default_factory=LeverArm)  # the accelerometer moved to the shoulder

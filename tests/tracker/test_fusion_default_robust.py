@@ -332,7 +332,7 @@ def raised(seed: int, misaligned: bool, turned_rate: float) -> tuple[float, floa
     """The heading's error after 300 s (deg, from its value at 5 s) and the RMS of the bias learned
     about the board's y and z (deg/s; the true bias is 0) after the first 30 s."""
     gyr, acc, truth = raised_session(seed, misaligned)
-    q, est, _, _ = run(gyr, acc, None, bias_turned_rate=turned_rate, sens_prior=0.0)  # the turned term alone
+    q, est, _, _ = run(gyr, acc, None, bias_turned_rate=turned_rate)
     heading = heading_error_deg(q, truth, slice(int(5 * RATE), int(5 * RATE) + 1))
     return float(heading[-1]), float(np.degrees(np.sqrt(np.mean(est[int(30 * RATE):, 1:] ** 2))))
 

@@ -13,7 +13,7 @@ from functools import lru_cache
 import numpy as np
 import pytest
 
-from tracker.fusion.default import DefaultParams
+from tracker.fusion.default import SHOULDER_SENS_PRIOR, DefaultParams, for_mpu9250
 from tracker.fusion.sensitivity import Sensitivity
 from tracker.sim import Simulator, arm_chain, mpu9250
 
@@ -21,7 +21,8 @@ from .test_fusion_default_robust import MISALIGNED, RATE, heading_error_deg, pla
 
 START = DefaultParams().sens_start_t  # the residual is learned from then on
 SECONDS = START + 300.0
-OFF = {"sens_prior": 0.0}  # nothing learned: the filter before
+ON = {"sens_prior": SHOULDER_SENS_PRIOR}  # as the game's tracking has it (the accelerometer at the shoulder)
+OFF = {"sens_prior": 0.0}  # nothing learned: the filter's default, fed a raw accelerometer
 # Every entry off by the 0.2 % a maker's calibration leaves at worst (README, the maker table).
 RESIDUAL = 0.002 * np.array([[1.0, 1.0, -1.0], [-1.0, -1.0, 1.0], [1.0, -1.0, 1.0]])
 
@@ -38,7 +39,7 @@ def shoulder_session(motion: str, seed: int):
     return d.gyr[:, 0], d.acc[:, 0], d.truth.q_sensors[:, 0]
 
 
-def learned(motion: str, seed: int, m: np.ndarray, **params) -> tuple[np.ndarray, float]:
+def learned(motion: str, seed: int, m: np.ndarray, params: dict = ON) -> tuple[np.ndarray, float]:
     """D learned over 300 s, and the heading's error then (deg, from its value when learning began)."""
     gyr, acc, truth = shoulder_session(motion, seed)
     q, _, _, f = run(gyr @ (np.eye(3) + m).T, acc, None, **params)
@@ -65,7 +66,7 @@ def test_raises_no_longer_walk_the_heading(seed):
     np.testing.assert_allclose(d[1:, 0], true[1:, 0], rtol=0.35)
     assert abs(d[0, 0]) < 0.15 * abs(true[1, 0])
     assert np.abs(d[:, 1:]).max() < 0.05 * abs(true[1, 0])  # (the sensor noise turns it a little)
-    _, before = learned("raises", seed, MISALIGNED, **OFF)
+    _, before = learned("raises", seed, MISALIGNED, OFF)
     assert before < -3.0 and abs(heading) < 0.25 * abs(before), (heading, before)
 
 
@@ -78,3 +79,13 @@ def test_the_correction_is_i_plus_d_and_each_entry_stays_within_its_limit():
     _, ph, spread = s.row((1.0, 0.0, 0.0))
     s.learn(ph, spread, 100.0, 1.0)  # an innovation far beyond any residual's
     assert max(abs(v) for v in s.d) == pytest.approx(0.005)
+
+
+def test_it_is_learned_only_where_the_accelerometer_is_at_the_centre_of_rotation():
+    # A raw accelerometer feels every move's tangential acceleration, which correlates with the rate:
+    # the filter's default learns nothing, the board's filter at the shoulder (the game's) does.
+    assert DefaultParams().sens_prior == 0.0
+    assert for_mpu9250(200.0).params.sens_prior == 0.0
+    assert for_mpu9250(200.0, at_shoulder=True).params.sens_prior == SHOULDER_SENS_PRIOR > 0.0
+    d, _ = learned("raises", 0, MISALIGNED, OFF)
+    assert not d.any()

@@ -74,6 +74,7 @@ from .start import StartMean
 
 GRAVITY = 9.81
 BIAS_EVERY = 4  # samples per update of the bias in motion
+SHOULDER_SENS_PRIOR = 40.0  # sens_prior for an accelerometer moved to the shoulder (for_mpu9250)
 Sym3 = tuple[float, float, float, float, float, float]  # a symmetric 3x3 matrix: xx, xy, xz, yy, yz, zz
 Mat3 = tuple[float, float, float, float, float, float, float, float, float]  # a 3x3 matrix by rows
 
@@ -145,11 +146,13 @@ class DefaultParams:
     bias_turn_rate: float = 0.25  # turning this fast (rad/s, low-passed) halves what motion tells of the bias
     bias_turned_rate: float = 0.25  # ... and so does having turned this fast over the last tau_acc (the rate
     # low-passed as the accelerometer is): the tilt a turn leaves (DefaultFilter._learn_bias_in_motion)
-    sens_prior: float = 40.0  # the gyroscope's residual sensitivity's prior covariance per entry, in bias_p's
-    # units per (rad/s)^2 (tracker.fusion.sensitivity; README, "The gyroscope's residual sensitivity")
+    sens_prior: float = 0.0  # the gyroscope's residual sensitivity's prior covariance per entry, in bias_p's
+    # units per (rad/s)^2; 0: not learned. Only an accelerometer moved to the centre of rotation has
+    # no accelerations that correlate with the rate: SHOULDER_SENS_PRIOR (tracker.fusion.sensitivity;
+    # README, "The gyroscope's residual sensitivity")
     sens_limit: float = 0.005  # |entry| bound: 2.5 times the 0.2 % a maker's calibration leaves at worst
     sens_start_t: float = 60.0  # the residual is learned from this long after the start, once the bias loop
-    # has taken out most of what the start left (from 5 deg/s off: within 1 deg/s after 29 s, README)
+    # has taken out most of what the start left (from 5 deg/s off: within 1 deg/s after 33 s, README)
     bias_forget_t: float = 20.0  # a bias direction nothing observes is unknown again after about this, s
     bias_max: float = math.radians(35.0)  # |bias| limit per axis: zero-rate output over temperature
     drift_t: float = 15.0  # the drift's random walk makes the bias loop follow a ramp within about this, s
@@ -289,7 +292,10 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
             self._detect_rest(gyr, acc, dt)
         # 1. Strapdown integration of the bias-corrected rate (VQF sec. 3.1).
         b = s.bias
-        w = s.sens.correct((gyr[0] - b[0], gyr[1] - b[1], gyr[2] - b[2]))
+        w = (gyr[0] - b[0], gyr[1] - b[1], gyr[2] - b[2])
+        learn_sens = p.sens_prior > 0.0
+        if learn_sens:
+            w = s.sens.correct(w)
         s.q_gyr = normalize(integrate(s.q_gyr, w, dt))
         s.turned_lp.step(w, dt)
         # 2. Inclination from the accelerometer low-passed in frame I (VQF sec. 3.2),
@@ -300,8 +306,9 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
             # The correction, summed over BIAS_EVERY samples, teaches the bias (a 3 s loop needs no more).
             cx, cy = s.tilt_sum
             s.tilt_sum, s.tilt_dt, s.tilt_n = (cx + tilt[0], cy + tilt[1]), s.tilt_dt + dt, s.tilt_n + 1
-            ws = s.rate_sum
-            s.rate_sum = (ws[0] + w[0] * dt, ws[1] + w[1] * dt, ws[2] + w[2] * dt)
+            if learn_sens:
+                ws = s.rate_sum
+                s.rate_sum = (ws[0] + w[0] * dt, ws[1] + w[1] * dt, ws[2] + w[2] * dt)
             if s.tilt_n == BIAS_EVERY:
                 (cx, cy), t, (wx, wy, wz) = s.tilt_sum, s.tilt_dt, s.rate_sum
                 self._learn_bias_in_motion(cx / t, cy / t, (wx / t, wy / t, wz / t), t,
@@ -547,9 +554,9 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         The residual itself is a second Kalman state beside the bias
         (:mod:`tracker.fusion.sensitivity`): the same innovation teaches both, each
         with the other's uncertainty as added noise, so once D explains the tilts
-        the turns leave the bias no longer takes them (heading walk on 300 s of
-        raises with a 0.2 % residual: 3.9-4.5 degrees without it, under 0.4
-        with it; the tests). ``w`` is the corrected rate's mean over the ``dt``
+        the turns leave the bias no longer takes them (the heading's walk over
+        300 s of raises with a 0.2 % residual: 4.3-5.2 degrees without it,
+        0.5-0.9 with it; the tests). ``w`` is the corrected rate's mean over the ``dt``
         of the update (its regressors are stepped at the bias's rate).
 
         ``drift`` False (on a board whose warm-up is calibrated, the first
@@ -572,7 +579,9 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
                 (2.0 * (x * z - qw * y), 2.0 * (y * z + qw * x), 1.0 - 2.0 * (x * x + y * y)))
         m0, m1, m2 = s.bias_lp_r0.step(rows[0], dt), s.bias_lp_r1.step(rows[1], dt), s.bias_lp_r2.step(rows[2], dt)
         pb = s.bias_lp_rb.step(rotate(s.q_gyr, s.bias), dt)
-        s.sens.regress(rows, w, dt)
+        learn_sens = self.params.sens_prior > 0.0
+        if learn_sens:
+            s.sens.regress(rows, w, dt)
         qw, x, y, z = s.q_inc  # rows 1 and 2 of R_EI
         e0 = (1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - qw * z), 2.0 * (x * z + qw * y))
         e1 = (2.0 * (x * y + qw * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - qw * x))
@@ -592,9 +601,11 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
             innovation = a0 * pb[0] + a1 * pb[1] + a2 * pb[2] - c - (h[0] * b[0] + h[1] * b[1] + h[2] * b[2])
             # The residual sensitivity takes its share of the same innovation once the arm has stopped,
             # after the start (tracker.fusion.sensitivity); each sees the other's uncertainty as noise.
-            _, ph, spread = s.sens.row(a)
-            if turn < 1.0 and s.t > p.sens_start_t:
-                s.sens.learn(ph, spread, innovation, r + self._bias_spread(h))
+            spread = 0.0
+            if learn_sens:
+                _, ph, spread = s.sens.row(a)
+                if turn < 1.0 and s.t > p.sens_start_t:
+                    s.sens.learn(ph, spread, innovation, r + self._bias_spread(h))
             self._observe_bias(h, innovation, r + spread, drift)
 
     # ------------------------------------------------------------ heading
@@ -803,8 +814,11 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
 FILTER_CLASS = DefaultFilter
 
 
-def for_mpu9250(rate_hz: float) -> DefaultFilter:
+def for_mpu9250(rate_hz: float, at_shoulder: bool = False) -> DefaultFilter:
     """The default filter for an MPU-9250 streaming at ``rate_hz``: told how much more recently its
     accelerometer reads than its gyroscope at the firmware's low-pass setting (``acc_lead_s``,
-    :class:`tracker.mpu_dlpf.Dlpf`)."""
-    return DefaultFilter(DefaultParams(acc_lead_s=Dlpf.for_rate(rate_hz).acc_lead_s))
+    :class:`tracker.mpu_dlpf.Dlpf`). ``at_shoulder``: its accelerometer is moved to the
+    shoulder (:mod:`tracker.lever_arm`), so the gyroscope's residual sensitivity is learned
+    (:mod:`tracker.fusion.sensitivity`)."""
+    return DefaultFilter(DefaultParams(acc_lead_s=Dlpf.for_rate(rate_hz).acc_lead_s,
+                                       sens_prior=SHOULDER_SENS_PRIOR if at_shoulder else 0.0))

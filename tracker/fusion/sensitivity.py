@@ -10,7 +10,7 @@ reads every inclination correction as a bias, learned it as one along the axes
 horizontal then. Whichever of them is vertical in the next pose turns the
 heading while the arm stays there, and every raise adds the same share, so
 without a magnetometer the heading walked (README, "The gyroscope's residual
-sensitivity": 4 degrees in 300 s of raises with a 0.2 % residual).
+sensitivity": 4-5 degrees in 300 s of raises with a 0.2 % residual).
 
 How. The true rate is (I + D) w, w the bias-corrected reading. An estimate
 off by dD turns the strapdown frame I by R_IS dD w per second, as a bias error
@@ -39,6 +39,15 @@ out, and D, whose covariance shrinks as it learns, would keep its share for
 the session (learning from 20 s on, a drawn player's late aim over two-minute
 sessions rose from 2.9 and 4.8 degrees to 3.5 and 5.8; from 60 s on, 3.0 and
 4.6; README). Each entry stays within ``limit``.
+
+Where. Even at rest after a move, an accelerometer away from the centre of
+rotation still carries, low-passed, the tangential acceleration of the move,
+which follows the rate's derivative and so correlates with the regressors:
+on raises read 0.3 m from the shoulder D's scale entry went to its limit,
+and on BROAD's hand-held recordings the default filter got worse (README).
+So only a filter told that its accelerometer is at the shoulder
+(:func:`tracker.fusion.default.for_mpu9250`, the game's tracking after
+:mod:`tracker.lever_arm`) learns it.
 """
 
 from __future__ import annotations
