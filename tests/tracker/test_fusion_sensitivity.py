@@ -76,7 +76,7 @@ def test_the_correction_is_i_plus_d_and_each_entry_stays_within_its_limit():
     w = (0.3, -1.2, 2.0)
     np.testing.assert_allclose(s.correct(w), (np.eye(3) + RESIDUAL) @ w, rtol=1e-12)
     s.regress(((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)), w, 0.02)  # turning about all three
-    _, ph, spread = s.row((1.0, 0.0, 0.0))
+    ph, spread = s.row((1.0, 0.0, 0.0))
     s.learn(ph, spread, 100.0, 1.0)  # an innovation far beyond any residual's
     assert max(abs(v) for v in s.d) == pytest.approx(0.005)
 

@@ -603,7 +603,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
             # after the start (tracker.fusion.sensitivity); each sees the other's uncertainty as noise.
             spread = 0.0
             if learn_sens:
-                _, ph, spread = s.sens.row(a)
+                ph, spread = s.sens.row(a)
                 if turn < 1.0 and s.t > p.sens_start_t:
                     s.sens.learn(ph, spread, innovation, r + self._bias_spread(h))
             self._observe_bias(h, innovation, r + spread, drift)

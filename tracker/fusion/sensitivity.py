@@ -66,8 +66,8 @@ ZERO9 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 @dataclass
 class Sensitivity:
-    """The residual sensitivity D (row-major, ``d[3 * i + j]``: what a rate about j reads about i),
-    its covariance and the low-passed regressors (module docstring)."""
+    """The residual sensitivity D (row-major: ``d[3 * i + j]`` is the share of the reading about j
+    that is true rate about i), its covariance and the low-passed regressors (module docstring)."""
 
     tau: float  # the regressors' low-pass time constant: the accelerometer's in I (s)
     prior: float  # D's prior covariance per entry, in the bias covariance's units per (rad/s)^2
@@ -97,12 +97,12 @@ class Sensitivity:
             for j in range(3):
                 out[3 * i + j] = self.lp[3 * i + j].step((ci[0] * w[j], ci[1] * w[j], ci[2] * w[j]), dt)
 
-    def row(self, a: Vec) -> tuple[Array, Array, float]:
-        """For the measurement along ``a`` (a row of R_EI): its row H over D's entries, P H' and
-        H P H' (the variance D's uncertainty adds to the measurement)."""
+    def row(self, a: Vec) -> tuple[Array, float]:
+        """For the measurement along ``a`` (a row of R_EI), whose row over D's entries is
+        H = -(regressors a): P H' and H P H' (the variance D's uncertainty adds to it)."""
         h = -(self.regressors @ np.array(a))
         ph = self.p @ h
-        return h, ph, float(h @ ph)
+        return ph, float(h @ ph)
 
     def learn(self, ph: Array, spread: float, innovation: float, noise: float) -> None:
         """One scalar Kalman update: ``spread`` = H P H', ``noise`` the measurement's own noise
