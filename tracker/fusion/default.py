@@ -311,8 +311,8 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
                 s.rate_sum = (ws[0] + w[0] * dt, ws[1] + w[1] * dt, ws[2] + w[2] * dt)
             if s.tilt_n == BIAS_EVERY:
                 (cx, cy), t, (wx, wy, wz) = s.tilt_sum, s.tilt_dt, s.rate_sum
-                self._learn_bias_in_motion(cx / t, cy / t, (wx / t, wy / t, wz / t), t,
-                                           not s.warmup_calibrated or s.t > p.drift_settle_t)
+                rate = (wx / t, wy / t, wz / t) if learn_sens else None
+                self._learn_bias_in_motion(cx / t, cy / t, rate, t, not s.warmup_calibrated or s.t > p.drift_settle_t)
                 s.tilt_sum, s.tilt_dt, s.tilt_n, s.rate_sum = (0.0, 0.0), 0.0, 0, (0.0, 0.0, 0.0)
         # 3. Heading from the magnetometer, with disturbance rejection (VQF sec. 3.4). The AK8963
         #    measures at 100 Hz and the board sends its latest reading with every sample: a reading
@@ -439,7 +439,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         s = self._state
         xx, xy, xz, yy, yz, zz = s.bias_p
         hx, hy, hz = h
-        px, py, pz = xx * hx + xy * hy + xz * hz, xy * hx + yy * hy + yz * hz, xz * hx + yz * hy + zz * hz
+        px, py, pz = self._bias_ph(h)
         c0, c1, c2, c3, c4, c5, c6, c7, c8 = s.cross_p  # P_db h = P_bd' h: how the drift covaries
         qx, qy, qz = c0 * hx + c3 * hy + c6 * hz, c1 * hx + c4 * hy + c7 * hz, c2 * hx + c5 * hy + c8 * hz
         scale = 1.0 / (hx * px + hy * py + hz * pz + r)
@@ -458,12 +458,11 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         dx, dy, dz = d[0] + jx * innovation, d[1] + jy * innovation, d[2] + jz * innovation
         s.drift = _limit(dx, dy, dz, m)
 
-    def _bias_spread(self, h: Vec) -> float:
-        """h' P h: the variance the bias's uncertainty adds to the measurement h . b (bias_p's units)."""
+    def _bias_ph(self, h: Vec) -> Vec:
+        """P h, P the bias's covariance: h' P h is the variance it adds to the measurement h . b."""
         xx, xy, xz, yy, yz, zz = self._state.bias_p
         hx, hy, hz = h
-        return (hx * (xx * hx + xy * hy + xz * hz) + hy * (xy * hx + yy * hy + yz * hz)
-                + hz * (xz * hx + yz * hy + zz * hz))
+        return xx * hx + xy * hy + xz * hz, xy * hx + yy * hy + yz * hz, xz * hx + yz * hy + zz * hz
 
     def _clamp(self, x: float, y: float, z: float) -> Vec:
         """The bias (x, y, z) limited to +-bias_max per axis."""
@@ -512,7 +511,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         s.q_inc = normalize(mul(from_rotvec(rx, ry, 0.0), s.q_inc))
         return rx, ry
 
-    def _learn_bias_in_motion(self, cx: float, cy: float, w: Vec, dt: float, drift: bool) -> None:
+    def _learn_bias_in_motion(self, cx: float, cy: float, w: Vec | None, dt: float, drift: bool) -> None:
         """The bias from the inclination correction rate (VQF sec. 3.3 "motion bias
         estimation"; Mahony eq. 32 is the same idea as a fixed integral gain), and
         with ``drift`` its rate of change.
@@ -557,7 +556,8 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         the turns leave the bias no longer takes them (the heading's walk over
         300 s of raises with a 0.2 % residual: 4.3-5.2 degrees without it,
         0.5-0.9 with it; the tests). ``w`` is the corrected rate's mean over the ``dt``
-        of the update (its regressors are stepped at the bias's rate).
+        of the update (its regressors are stepped at the bias's rate), None where the
+        residual is not learned (``sens_prior`` 0).
 
         ``drift`` False (on a board whose warm-up is calibrated, the first
         ``drift_settle_t`` after the start: :meth:`power_on`) leaves the drift alone. The
@@ -579,8 +579,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
                 (2.0 * (x * z - qw * y), 2.0 * (y * z + qw * x), 1.0 - 2.0 * (x * x + y * y)))
         m0, m1, m2 = s.bias_lp_r0.step(rows[0], dt), s.bias_lp_r1.step(rows[1], dt), s.bias_lp_r2.step(rows[2], dt)
         pb = s.bias_lp_rb.step(rotate(s.q_gyr, s.bias), dt)
-        learn_sens = self.params.sens_prior > 0.0
-        if learn_sens:
+        if w is not None:
             s.sens.regress(rows, w, dt)
         qw, x, y, z = s.q_inc  # rows 1 and 2 of R_EI
         e0 = (1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - qw * z), 2.0 * (x * z + qw * y))
@@ -602,10 +601,11 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
             # The residual sensitivity takes its share of the same innovation once the arm has stopped,
             # after the start (tracker.fusion.sensitivity); each sees the other's uncertainty as noise.
             spread = 0.0
-            if learn_sens:
+            if w is not None:
                 ph, spread = s.sens.row(a)
                 if turn < 1.0 and s.t > p.sens_start_t:
-                    s.sens.learn(ph, spread, innovation, r + self._bias_spread(h))
+                    px, py, pz = self._bias_ph(h)
+                    s.sens.learn(ph, spread, innovation, r + h[0] * px + h[1] * py + h[2] * pz)
             self._observe_bias(h, innovation, r + spread, drift)
 
     # ------------------------------------------------------------ heading
