@@ -37,6 +37,12 @@ from .pose import ArmPose
 MAX_GAP_S = 0.5  # a longer gap in device time (link loss) restarts the time base
 
 
+def game_filter() -> DefaultFilter:
+    """The filter the game fuses with: the default one for the board's start-up rate, its
+    accelerometer moved to the shoulder (:func:`tracker.fusion.default.for_mpu9250`)."""
+    return for_mpu9250(P.BOOT_RATE_HZ, at_shoulder=True)
+
+
 @dataclass
 class Tracking:
     """Turns a stream of board samples into ArmPoses."""
@@ -45,7 +51,7 @@ class Tracking:
     board: BoardCalibration = field(default_factory=BoardCalibration)
     flex_calibration: FlexCalibration | None = None
     # at_shoulder: ``lever`` moves the accelerometer to the shoulder; another filter: tracker.fusion.make
-    filter: Filter = field(default_factory=lambda: for_mpu9250(P.BOOT_RATE_HZ, at_shoulder=True))
+    filter: Filter = field(default_factory=game_filter)
     flex: FlexTracker = field(init=False)
     anchor: HeadingAnchor = field(default_factory=HeadingAnchor)  # "forward" as the field's heading settles
     lever: LeverArm = field(default_factory=LeverArm)  # the accelerometer moved to the shoulder

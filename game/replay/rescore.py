@@ -3,8 +3,9 @@
 A researcher's use of a session recording. While a replay plays the
 recorded game, a second pipeline runs beside it on the same input: each
 frame's polled samples (:attr:`Frame.polls <game.replay.replay.Frame>`)
-through the ``--filter`` named (:func:`tracker.fusion.make`, with the
-game's board calibration and flex tracking), posed on a copy of the game's
+through the ``--filter`` named (:func:`tracker.fusion.make`; ``default`` is the
+game's own, :func:`game.body.tracking.game_filter`, with the accelerometer moved to
+the shoulder; with the game's board calibration and flex tracking), posed on a copy of the game's
 avatar (its wearing, position and turn), and the arm's state through a
 gesture machine with the ``--gestures`` settings. With only other gesture
 settings, the second machine reads the game's own arm state, frame by
@@ -25,10 +26,11 @@ from dataclasses import asdict, dataclass, field
 
 from tracker.figures import figure, save_png
 from tracker.fusion import make
+from tracker.fusion.default import DefaultFilter
 
 from ..body.avatar import Avatar, ArmState
 from ..body.gestures import GestureEvent, GestureMachine, GestureSettings
-from ..body.tracking import Tracking
+from ..body.tracking import Tracking, game_filter
 from . import samples as S
 
 MATCH_S = 0.5  # launches this close in time are the same throw
@@ -90,7 +92,8 @@ class Rescorer:
             return None
         if self.tracking is None or source.tracking.board is not self._board:  # a new calibration: start again
             self._board = source.tracking.board
-            self.tracking = Tracking(board=source.tracking.board, filter=make(self.filter_name),
+            other = game_filter() if self.filter_name == DefaultFilter.name else make(self.filter_name)
+            self.tracking = Tracking(board=source.tracking.board, filter=other,
                                      flex_calibration=source.tracking.flex_calibration)
         pose = None
         for batch in polls:

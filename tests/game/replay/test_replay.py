@@ -290,6 +290,22 @@ def test_another_filter_accounts_for_every_launch(virtual_session):
     assert kept + len(out["appeared"]) == out["other_launches"] and len(out["moved"]) <= kept
 
 
+def test_rescoring_with_the_default_filter_runs_the_games_own(virtual_session):
+    """``--filter default`` is the filter as the game fuses with it (its accelerometer at the shoulder,
+    the residual sensitivity learned, the MPU-9250's low-pass lead), not a bare default; it starts with
+    play, without the hold's bias, so its launches are the game's, their aims a little off."""
+    from game.body.tracking import Tracking
+    from game.replay.rescore import Rescorer
+
+    path, _ = virtual_session
+    rescorer = Rescorer("default", None)
+    replay(path, rescorer=rescorer)
+    assert rescorer.tracking is not None and rescorer.tracking.filter.params == Tracking().filter.params
+    out = rescorer.compare()
+    assert out["launches"] == out["other_launches"] > 0 and out["appeared"] == out["disappeared"] == []
+    assert all(m["aim_turned_deg"] < 2.0 for m in out["moved"])  # its one launch moved by 0.77 deg when written
+
+
 @pytest.mark.parametrize("args, words", [
     (["--filter", "default"], "holds no board samples"),
     (["--gestures", "{missing}"], "No such file"),
