@@ -3,9 +3,9 @@
 A researcher's use of a session recording. While a replay plays the
 recorded game, a second pipeline runs beside it on the same input: each
 frame's polled samples (:attr:`Frame.polls <game.replay.replay.Frame>`)
-through the ``--filter`` named (:func:`tracker.fusion.make`; ``default`` is the
-game's own, :func:`game.body.tracking.game_filter`, with the accelerometer moved to
-the shoulder; with the game's board calibration and flex tracking), posed on a copy of the game's
+through the ``--filter`` named, with the game's board calibration and flex
+tracking (``default``: the game's own, :func:`game.body.tracking.game_filter`;
+any other: :func:`tracker.fusion.make`), posed on a copy of the game's
 avatar (its wearing, position and turn), and the arm's state through a
 gesture machine with the ``--gestures`` settings. With only other gesture
 settings, the second machine reads the game's own arm state, frame by
