@@ -28,14 +28,15 @@ WARMUP_DPS, WARMUP_TAU_S = 4.0, 150.0  # the issue's worst warm-up, the sim's th
 
 
 def play(seed: int, duration: float, tremor_deg: float = 0.5, tremor_hz: float = 8.0,
-         sway_deg: float = 2.0) -> Motion:
+         sway_deg: float = 2.0, speed: float = 1.0) -> Motion:
     """A player at play: the upper arm moves to a random pose (yaw, raise, twist) in 0.4-1.2 s
-    (minimum jerk), holds it 0.3-1.5 s, and so on; a tremor about the arm's two swing axes
-    and a slow sway (0.1-1 Hz) about all three ride on top. The elbow stays straight."""
+    (minimum jerk), holds it 0.3-1.5 s, and so on, both divided by ``speed``; a tremor about the
+    arm's two swing axes and a slow sway (0.1-1 Hz) about all three ride on top. The elbow stays
+    straight."""
     rng = np.random.default_rng(seed)
     times, poses, t = [0.0], [np.zeros(3)], 0.0
     while t < duration + 2.0:
-        move, hold = rng.uniform(0.4, 1.2), rng.uniform(0.3, 1.5)
+        move, hold = rng.uniform(0.4, 1.2) / speed, rng.uniform(0.3, 1.5) / speed
         target = np.array([rng.uniform(-0.6, 0.6), rng.uniform(0.0, 1.6), rng.uniform(-0.5, 0.5)])
         times += [t + move, t + move + hold]
         poses += [target, target]

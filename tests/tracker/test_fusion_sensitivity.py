@@ -4,6 +4,9 @@ shoulder (what the game's lever-arm correction gives the filter, tracker.lever_a
 
 The truth worked by hand: the filter's D maps the reading back to the true rate, D = (I + M)^-1 - I,
 which to first order in M (0.2 %) is -M; numpy's inverse gives it exactly.
+
+With D learned there, the bias loop's turn gates open wider (``SHOULDER_TURN_RATE``): a fast
+player's bias is learned against its simulated truth.
 """
 
 from __future__ import annotations
@@ -12,16 +15,18 @@ from functools import lru_cache
 
 import numpy as np
 import pytest
+from scipy.signal import lfilter
 
-from tracker.fusion.default import SHOULDER_SENS_PRIOR, DefaultParams, for_mpu9250
+from tracker.fusion.default import SHOULDER_SENS_PRIOR, SHOULDER_TURN_RATE, DefaultParams, for_mpu9250
 from tracker.fusion.sensitivity import Sensitivity
 from tracker.sim import Simulator, arm_chain, mpu9250
 
-from .test_fusion_default_robust import MISALIGNED, RATE, heading_error_deg, play, raises, run
+from .test_fusion_default_robust import BIAS0_DPS, MISALIGNED, RATE, heading_error_deg, play, raises, run
 
 START = DefaultParams().sens_start_t  # the residual is learned from then on
 SECONDS = START + 300.0
-ON = {"sens_prior": SHOULDER_SENS_PRIOR}  # as the game's tracking has it (the accelerometer at the shoulder)
+# As the game's tracking has it (the accelerometer at the shoulder, for_mpu9250).
+ON = {"sens_prior": SHOULDER_SENS_PRIOR, "bias_turn_rate": SHOULDER_TURN_RATE, "bias_turned_rate": SHOULDER_TURN_RATE}
 OFF = {"sens_prior": 0.0}  # nothing learned: the filter's default, fed a raw accelerometer
 # Every entry off by the 0.2 % a maker's calibration leaves at worst (README, the maker table).
 RESIDUAL = 0.002 * np.array([[1.0, 1.0, -1.0], [-1.0, -1.0, 1.0], [1.0, -1.0, 1.0]])
@@ -89,3 +94,38 @@ def test_it_is_learned_only_where_the_accelerometer_is_at_the_centre_of_rotation
     assert for_mpu9250(200.0, at_shoulder=True).params.sens_prior == SHOULDER_SENS_PRIOR > 0.0
     d, _ = learned("raises", 0, MISALIGNED, OFF)
     assert not d.any()
+    assert (DefaultParams().bias_turn_rate, DefaultParams().bias_turned_rate) == (0.25, 0.25)
+    shoulder = for_mpu9250(200.0, at_shoulder=True).params
+    assert shoulder.bias_turn_rate == shoulder.bias_turned_rate == SHOULDER_TURN_RATE == 0.5
+
+
+# ----------------------------------------------------------------- a fast player's bias
+
+FAST, FAST_SECONDS = 2.0, 180.0  # twice the typical speed (the profiles' range: 0.25-4), three minutes
+
+
+@lru_cache(maxsize=None)
+def fast_session(seed: int):
+    """(gyro reading, accelerometer, true rate, true bias) of fast play at the shoulder with tremor and
+    sway, the gyroscope 5 deg/s off (no start-up hold took it out) and its sensitivity off by RESIDUAL."""
+    mo = play(seed, FAST_SECONDS, sway_deg=1.0, speed=FAST)
+    d = Simulator(arm_chain(sensor_m=0.0), mo, mpu9250(offset=False), seed=seed).simulate(FAST_SECONDS, RATE)
+    bias = np.radians(BIAS0_DPS)
+    return d.gyr[:, 0] @ (np.eye(3) + RESIDUAL).T + bias, d.acc[:, 0], d.gyr[:, 0], bias
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_fast_players_bias_is_learned_through_the_wider_turn_gates(seed):
+    gyr, acc, rate, bias = fast_session(seed)
+    # The player turns faster than the default's gate most of the time (the rate low-passed over
+    # rest_lp_tau, 1 s), where it weighs what motion tells of the bias at 1 / (1 + |w|^2 / 0.25^2):
+    # a fifth at 0.5 rad/s, against a half at the shoulder's gate.
+    k = 1.0 / (DefaultParams().rest_lp_tau * RATE)
+    lp = np.linalg.norm(lfilter([k], [1.0, k - 1.0], rate, axis=0), axis=1)
+    assert np.mean(lp > DefaultParams().bias_turn_rate) > 0.75
+    late = slice(int(FAST_SECONDS / 2 * RATE), None)
+    error = {}
+    for gate in (DefaultParams().bias_turn_rate, SHOULDER_TURN_RATE):
+        _, est, _, _ = run(gyr, acc, None, **{**ON, "bias_turn_rate": gate, "bias_turned_rate": gate})
+        error[gate] = np.degrees(np.sqrt(np.mean(np.sum((est[late] - bias) ** 2, axis=1))))
+    assert error[SHOULDER_TURN_RATE] < 0.8 * error[DefaultParams().bias_turn_rate], error

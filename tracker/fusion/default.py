@@ -60,7 +60,7 @@ Two things hold up on a real player with a real board:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from mypy_extensions import mypyc_attr
 
@@ -75,6 +75,7 @@ from .start import StartMean
 GRAVITY = 9.81
 BIAS_EVERY = 4  # samples per update of the bias in motion
 SHOULDER_SENS_PRIOR = 40.0  # sens_prior for an accelerometer moved to the shoulder (for_mpu9250)
+SHOULDER_TURN_RATE = 0.5  # bias_turn_rate and bias_turned_rate there, rad/s (for_mpu9250)
 Sym3 = tuple[float, float, float, float, float, float]  # a symmetric 3x3 matrix: xx, xy, xz, yy, yz, zz
 Mat3 = tuple[float, float, float, float, float, float, float, float, float]  # a 3x3 matrix by rows
 
@@ -150,6 +151,8 @@ class DefaultParams:
     # units per (rad/s)^2; 0: not learned. Only an accelerometer moved to the centre of rotation has
     # no accelerations that correlate with the rate: SHOULDER_SENS_PRIOR (tracker.fusion.sensitivity;
     # README, "The gyroscope's residual sensitivity")
+    sens_still_rate: float = 0.25  # ... and learned only while the rate low-passed over rest_lp_tau is below
+    # this (rad/s): the arm has stopped (tracker.fusion.sensitivity)
     sens_limit: float = 0.005  # |entry| bound: 2.5 times the 0.2 % a maker's calibration leaves at worst
     sens_start_t: float = 60.0  # the residual is learned from this long after the start, once the bias loop
     # has taken out most of what the start left (from 5 deg/s off: within 1 deg/s after 33 s, README)
@@ -588,7 +591,8 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         p = self.params
         gx, gy, gz = s.rest_gyr.y
         bx, by, bz = s.bias
-        turn = ((gx - bx) ** 2 + (gy - by) ** 2 + (gz - bz) ** 2) / (p.bias_turn_rate * p.bias_turn_rate)
+        rate2 = (gx - bx) ** 2 + (gy - by) ** 2 + (gz - bz) ** 2
+        turn = rate2 / (p.bias_turn_rate * p.bias_turn_rate)
         tx, ty, tz = s.turned_lp.y
         turned = (tx * tx + ty * ty + tz * tz) / (p.bias_turned_rate * p.bias_turned_rate)
         r = (1.0 + turn + turned) / dt
@@ -603,7 +607,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
             spread = 0.0
             if w is not None:
                 ph, spread = s.sens.row(a)
-                if turn < 1.0 and s.t > p.sens_start_t:
+                if rate2 < p.sens_still_rate * p.sens_still_rate and s.t > p.sens_start_t:
                     px, py, pz = self._bias_ph(h)
                     s.sens.learn(ph, spread, innovation, r + h[0] * px + h[1] * py + h[2] * pz)
             self._observe_bias(h, innovation, r + spread, drift)
@@ -819,6 +823,13 @@ def for_mpu9250(rate_hz: float, at_shoulder: bool = False) -> DefaultFilter:
     accelerometer reads than its gyroscope at the firmware's low-pass setting (``acc_lead_s``,
     :class:`tracker.mpu_dlpf.Dlpf`). ``at_shoulder``: its accelerometer is moved to the
     shoulder (:mod:`tracker.lever_arm`), so the gyroscope's residual sensitivity is learned
-    (:mod:`tracker.fusion.sensitivity`)."""
-    return DefaultFilter(DefaultParams(acc_lead_s=Dlpf.for_rate(rate_hz).acc_lead_s,
-                                       sens_prior=SHOULDER_SENS_PRIOR if at_shoulder else 0.0))
+    (:mod:`tracker.fusion.sensitivity`), and the bias loop's turn gates open to
+    ``SHOULDER_TURN_RATE``: the tilt a turn leaves, which they keep from being learned as a
+    bias, is the residual's to explain there, and a fast player, who turns faster than 0.25
+    rad/s most of the time, would teach the bias too little to hold the heading (README,
+    "Where a ten-minute miss comes from")."""
+    params = DefaultParams(acc_lead_s=Dlpf.for_rate(rate_hz).acc_lead_s)
+    if at_shoulder:
+        params = replace(params, sens_prior=SHOULDER_SENS_PRIOR, bias_turn_rate=SHOULDER_TURN_RATE,
+                         bias_turned_rate=SHOULDER_TURN_RATE)
+    return DefaultFilter(params)

@@ -27,7 +27,7 @@ methods to navigation problems", Advances in Control Systems 3, 1966), so the
 correction after a turn is shared between them by how much each can explain.
 
 D learns only while the arm has stopped (the rate low-passed over 1 s below
-the bias loop's ``bias_turn_rate``): during a move the lever arm's and the
+``sens_still_rate``, 0.25 rad/s): during a move the lever arm's and the
 soft tissue's accelerations that the accelerometer's low-pass has not yet
 averaged out correlate with the rate itself and read as a sensitivity error
 (learned during moves, entries reached 10 % in the worst plausible player's
