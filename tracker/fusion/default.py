@@ -827,7 +827,7 @@ def for_mpu9250(rate_hz: float, at_shoulder: bool = False) -> DefaultFilter:
     ``SHOULDER_TURN_RATE``: the tilt a turn leaves, which they keep from being learned as a
     bias, is the residual's to explain there, and a fast player, who turns faster than 0.25
     rad/s most of the time, would teach the bias too little to hold the heading (README,
-    "Where a ten-minute miss comes from")."""
+    "A fast player's bias at the shoulder")."""
     params = DefaultParams(acc_lead_s=Dlpf.for_rate(rate_hz).acc_lead_s)
     if at_shoulder:
         params = replace(params, sens_prior=SHOULDER_SENS_PRIOR, bias_turn_rate=SHOULDER_TURN_RATE,
