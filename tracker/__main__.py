@@ -54,6 +54,7 @@ HARD_IRON = Ranged(float, 0, 200)
 SOFT_IRON = Ranged(float, 0, 20)
 ROOM = Ranged(float, 0, 40)
 NOISE_SCALE = Ranged(float, 0, 20)
+BOARDS = Ranged(int, 1, 100)  # simulated boards of each kind for calibrate simulated
 POWERED_FOR = Ranged(float, 0)  # seconds the virtual board had been on (its die warming) before the procedure
 
 
@@ -482,6 +483,8 @@ def seconds_list(text: str) -> tuple[float, ...]:
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
     from . import calibrate_cli as K
+    if args.procedure == "simulated":
+        return _calibrate_simulated(args.seeds, args.json)
     if args.procedure == "show":
         text, problems = K.show(args.json)
         if text:
@@ -512,6 +515,21 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
                 raise
     print(json.dumps(report.values) if args.json else "\n".join(report.lines))
     return 0
+
+
+def _calibrate_simulated(seeds: int, as_json: bool) -> int:
+    """``calibrate simulated``: the errors the procedures leave on simulated boards, the worst over ``seeds``
+    boards of each kind (:func:`tracker.maker_sim.recovered_errors`); 1 if a procedure failed on one."""
+    from .maker_sim import recovered_errors
+    report = recovered_errors(seeds)
+    if as_json:
+        print(json.dumps(report, indent=2))
+    else:
+        for name in ("typical", "extreme"):
+            print(f"{name}: " + ", ".join(f"{k} {v}" for k, v in report[name].items() if k != "failures"))
+            for failure in report[name]["failures"]:
+                print(f"  {failure}")
+    return EXIT_ERROR if report["typical"]["failures"] or report["extreme"]["failures"] else 0
 
 
 def _wait(seconds: float | None) -> None:
@@ -618,6 +636,11 @@ def build_parser() -> argparse.ArgumentParser:
                        help=f"the board had been on this long before, {POWERED_FOR.text} (0: just plugged in, "
                             "its die warming for minutes)")
         q.set_defaults(func=cmd_calibrate)
+    q = steps.add_parser("simulated", help="the procedures on simulated boards, typical and extreme: the errors "
+                                           "they leave, worst over the boards (saves nothing)")
+    q.add_argument("--seeds", type=BOARDS, default=4, help=f"boards of each kind, {BOARDS.text} (4)")
+    q.add_argument("--json", action="store_true", help="print JSON")
+    q.set_defaults(func=cmd_calibrate)
     q = steps.add_parser("show", help="what is saved, for which board, and when")
     q.add_argument("--json", action="store_true")
     q.set_defaults(func=cmd_calibrate)

@@ -43,14 +43,7 @@ while: :class:`Magnet`).
 
 from __future__ import annotations
 
-if __name__ == "__main__":  # run as a program: a signal while it starts up ends it without a traceback
-    from . import signals as _startup
-
-    _startup.exit_quietly()
-
-import json
 import math
-import sys
 from dataclasses import dataclass, field, replace
 from typing import Callable, Sequence
 
@@ -578,32 +571,3 @@ def recovered_errors(seeds: int = 4) -> dict:
                 worst[key] = round(max(worst.get(key, 0.0), value), 3)
         report[name] = {**worst, "failures": failures}
     return report
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m tracker.maker_sim [--seeds N] [--json]``: the figures of :func:`recovered_errors`."""
-    from .options import Parser, Ranged
-    from . import signals
-
-    parser = Parser(prog="python -m tracker.maker_sim",
-                    description="The errors the guided calibrations leave on simulated boards (worst over seeds).")
-    parser.add_argument("--seeds", type=Ranged(int, 1, 100), default=4, help="boards per kind of board")
-    parser.add_argument("--json", action="store_true", help="print JSON")
-    args = parser.parse_args(argv)
-    try:  # outside the handlers' block: a signal while they are being installed is caught too
-        with signals.interrupts(ignore_after=argv is None):
-            report = recovered_errors(args.seeds)
-    except KeyboardInterrupt as e:
-        return signals.exit_status(e)
-    if args.json:
-        print(json.dumps(report, indent=2))
-    else:
-        for name in ("typical", "extreme"):
-            print(f"{name}: " + ", ".join(f"{k} {v}" for k, v in report[name].items() if k != "failures"))
-            for failure in report[name]["failures"]:
-                print(f"  {failure}")
-    return 1 if report["typical"]["failures"] or report["extreme"]["failures"] else 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -148,9 +148,12 @@ def test_the_extremes_are_the_catalogues_worst_board():
     assert (ours.gyr, ours.mag, ours.magnetic) == (worst.gyr, worst.mag, worst.magnetic)  # the flex is not used
 
 
+SIMULATED = (sys.executable, "-m", "tracker", "calibrate", "simulated")  # the figures' command (README)
+
+
 def test_the_figures_command_prints_json(tmp_path):
-    r = subprocess.run([sys.executable, "-m", "tracker.maker_sim", "--json", "--seeds", "1"], cwd=ROOT,
-                       capture_output=True, text=True, timeout=300, env={"HOME": str(tmp_path), "PATH": ""})
+    r = subprocess.run([*SIMULATED, "--json", "--seeds", "1"], cwd=ROOT, capture_output=True, text=True,
+                       timeout=300, env={"HOME": str(tmp_path), "PATH": ""})
     assert r.returncode == 0, r.stderr
     report = json.loads(r.stdout)
     for kind in ("typical", "extreme"):
@@ -161,7 +164,7 @@ def test_the_figures_command_prints_json(tmp_path):
 
 
 def test_the_figures_command_refuses_a_bad_seed_count_in_one_line(tmp_path):
-    r = subprocess.run([sys.executable, "-m", "tracker.maker_sim", "--seeds", "0"], cwd=ROOT,
-                       capture_output=True, text=True, timeout=60, env={"HOME": str(tmp_path), "PATH": ""})
+    r = subprocess.run([*SIMULATED, "--seeds", "0"], cwd=ROOT, capture_output=True, text=True, timeout=60,
+                       env={"HOME": str(tmp_path), "PATH": ""})
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and "--seeds" in r.stderr
