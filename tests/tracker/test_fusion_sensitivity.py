@@ -118,8 +118,9 @@ def fast_session(seed: int):
 def test_a_fast_players_bias_is_learned_through_the_wider_turn_gates(seed):
     gyr, acc, rate, bias = fast_session(seed)
     # The player turns faster than the default's gate most of the time (the true rate through a
-    # first-order low-pass over rest_lp_tau, 1 s, near the filter's own), where it weighs what motion tells of the bias at 1 / (1 + |w|^2 / 0.25^2):
-    # a fifth at 0.5 rad/s, against a half at the shoulder's gate.
+    # first-order low-pass over rest_lp_tau, 1 s, near the filter's own), where it weighs what motion
+    # tells of the bias at 1 / (1 + |w|^2 / 0.25^2): a fifth at 0.5 rad/s, against a half at the
+    # shoulder's gate.
     k = 1.0 / (DefaultParams().rest_lp_tau * RATE)
     lp = np.linalg.norm(lfilter([k], [1.0, k - 1.0], rate, axis=0), axis=1)
     assert np.mean(lp > DefaultParams().bias_turn_rate) > 0.75
