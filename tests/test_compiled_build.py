@@ -109,7 +109,8 @@ def test_a_compiled_match_is_the_pure_match_to_the_last_digit(build, tmp_path):
 
 
 def test_the_test_suite_passes_on_the_compiled_build(build, tmp_path):
-    """Everything but the firmware (no Python of ours runs there) and this file."""
+    """Everything but the firmware (no Python of ours runs there) and this file, on workers of its own
+    (the options in pyproject.toml)."""
     done = run(build, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--import-mode=append",
                f"--rootdir={ROOT}", "-c", str(ROOT / "pyproject.toml"), str(ROOT / "tests"),
                f"--ignore={ROOT / 'tests' / 'firmware'}", f"--ignore={Path(__file__)}", cwd=tmp_path)
