@@ -31,6 +31,13 @@ def compiled_list() -> list[str]:
         return tomllib.load(f)["tool"]["energyball"]["compiled"]
 
 
+def test_no_compiled_module_is_a_program():
+    # A compiled module has no code for ``python -m`` to run ("No code object available"): a command
+    # lives in a module that stays Python (``python -m tracker.maker_sim`` was one, README).
+    mains = [m for m in compiled_list() if 'if __name__ == "__main__"' in (ROOT / m).read_text()]
+    assert mains == []
+
+
 def pip_wheel(src: Path, out: Path, **env: str) -> subprocess.CompletedProcess:
     """``ENERGYBALL_COMPILE=1 pip wheel`` of the sources in ``src``, into ``out``."""
     return subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(out), str(src)],
