@@ -483,8 +483,6 @@ def seconds_list(text: str) -> tuple[float, ...]:
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
     from . import calibrate_cli as K
-    if args.procedure == "simulated":
-        return _calibrate_simulated(args.seeds, args.json)
     if args.procedure == "show":
         text, problems = K.show(args.json)
         if text:
@@ -517,12 +515,12 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _calibrate_simulated(seeds: int, as_json: bool) -> int:
-    """``calibrate simulated``: the errors the procedures leave on simulated boards, the worst over ``seeds``
-    boards of each kind (:func:`tracker.maker_sim.recovered_errors`); 1 if a procedure failed on one."""
+def cmd_calibrate_simulated(args: argparse.Namespace) -> int:
+    """``calibrate simulated``: the errors the procedures leave on simulated boards, the worst over
+    ``--seeds`` boards of each kind (:func:`tracker.maker_sim.recovered_errors`); 1 if a procedure failed on one."""
     from .maker_sim import recovered_errors
-    report = recovered_errors(seeds)
-    if as_json:
+    report = recovered_errors(args.seeds)
+    if args.json:
         print(json.dumps(report, indent=2))
     else:
         for name in ("typical", "extreme"):
@@ -640,7 +638,7 @@ def build_parser() -> argparse.ArgumentParser:
                                            "they leave, worst over the boards (saves nothing)")
     q.add_argument("--seeds", type=BOARDS, default=4, help=f"boards of each kind, {BOARDS.text} (4)")
     q.add_argument("--json", action="store_true", help="print JSON")
-    q.set_defaults(func=cmd_calibrate)
+    q.set_defaults(func=cmd_calibrate_simulated)
     q = steps.add_parser("show", help="what is saved, for which board, and when")
     q.add_argument("--json", action="store_true")
     q.set_defaults(func=cmd_calibrate)
