@@ -328,7 +328,8 @@ def build_parser() -> argparse.ArgumentParser:
     source.add_argument("--port", type=_port, help="the board's serial port or pyserial URL (default: find one)")
     parser.add_argument("--seed", type=SEED, default=0,
                         help=f"seed of the zombie waves (and of the first match), {SEED.text} (0)")
-    parser.add_argument("--record", metavar="FILE", help="keep the session in FILE (energyball replay FILE plays it again)")
+    parser.add_argument("--record", metavar="FILE",
+                        help="keep the session in FILE (energyball replay FILE plays it again)")
     h = parser.add_argument_group("headless matches (a simulated player, no window)")
     h.add_argument("--headless", action="store_true", help="play simulated matches with a bot")
     h.add_argument("--matches", type=MATCHES, help=f"how many matches, seeds S, S+1, ..., {MATCHES.text} (1)")

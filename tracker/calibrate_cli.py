@@ -375,7 +375,8 @@ def finish_thermal(board_id: str, procedure: ThermalProcedure, status: ThermalSt
               "gyro_thermal_ref_c": result.ref_c, "acc_thermal": result.acc_slope.tolist(), **dict(record.figures)}
     if result.negligible:
         return fitted, record, values, [f"warm-up drift: warmed {result.rise_c:.2f} degC from power-up: {NEGLIGIBLE}"]
-    line = (f"warm-up drift: gyroscope bias slope ({_numbers(np.degrees(result.slope), '{:+.4f}')}) deg/s per degC about "
+    slope = _numbers(np.degrees(result.slope), '{:+.4f}')
+    line = (f"warm-up drift: gyroscope bias slope ({slope}) deg/s per degC about "
             f"{result.ref_c:.2f} degC; warmed {result.rise_c:.2f} degC, residual {result.residual_dps:.3f} deg/s")
     acc_line = f"accelerometer zero-g slope ({_numbers(result.acc_slope / C.MG, '{:+.3f}')}) mg per degC"
     return fitted, record, values, [line, acc_line]

@@ -245,8 +245,8 @@ class StartupParams:
     a larger mean rate on any axis (rad/s) is refused: the MPU-9250's zero-rate output
     is within +-5 deg/s at 25 degC and moves by up to +-30 deg/s over its temperature
     range (PS-MPU-9250A-01 rev. 1.1, table 1; a profile's gyro_bias_dps allows 30), so
-    35 deg/s means a steady turn or a faulty gyroscope. ``max_tilt`` (rad): a larger net tilt of the arm over the hold is a
-    move: a sway of up to 4 deg peak (the issue's 0.1-1 Hz postural sway) swings the
+    35 deg/s means a steady turn or a faulty gyroscope. ``max_tilt`` (rad): a larger net
+    tilt of the arm over the hold is a move: a sway of up to 4 deg peak (the issue's 0.1-1 Hz postural sway) swings the
     arm at most 8 deg peak to peak, so 8.5 deg. ``max_rate`` (rad/s): the low-passed
     rate that the tilt does not explain must stay under it. Measured with this low-pass
     on the real arm recording (../shared/data/real-arm, both upper arms, every 2 s

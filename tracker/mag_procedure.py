@@ -81,9 +81,9 @@ from .calibration import GRAVITY, BoardCalibration
 from .mag_alignment import Alignment, AlignmentParams, fit_alignment
 
 MIN_POSES = 4  # still poses the alignment needs: three unknown angles and the dip
-from .magfit import (BINS, ELLIPSOID, ELLIPSOID_COVERAGE, FIELD_MAX_UT, FIELD_MIN_UT, MAX_RESIDUAL, EARTH_MAX_UT, EARTH_MIN_UT,
-                     MagFit, MagFitError, OnlineMagFit, OnlineParams, bin_directions, bin_index, fit_ellipsoid,
-                     fit_sphere)
+from .magfit import (BINS, EARTH_MAX_UT, EARTH_MIN_UT, ELLIPSOID, ELLIPSOID_COVERAGE, FIELD_MAX_UT, FIELD_MIN_UT,
+                     MAX_RESIDUAL, MagFit, MagFitError, OnlineMagFit, OnlineParams, bin_directions, bin_index,
+                     fit_ellipsoid, fit_sphere)
 from .protocol import RawSample
 
 __all__ = ["MagProcedure", "MagProcedureParams", "MagResult", "MagStatus", "bin_directions"]

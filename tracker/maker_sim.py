@@ -436,7 +436,8 @@ def calibration_errors(fitted: BoardCalibration, truth: BoardCalibration) -> dic
                                                         - _rotation(acc_left) @ truth.mag_soft_iron))) * 100.0,
         "gyro_thermal_error_dps_per_c": math.degrees(float(np.linalg.norm(fitted.gyro_thermal - truth.gyro_thermal))),
         "acc_thermal_error_mg_per_c": float(np.linalg.norm(fitted.acc_thermal - truth.acc_thermal)) / MG,
-        "gyro_scale_error_pct": float(np.max(np.abs(np.diag(fitted.gyro_scale) / np.diag(truth.gyro_scale) - 1.0))) * 100.0,
+        "gyro_scale_error_pct": float(np.max(np.abs(np.diag(fitted.gyro_scale) / np.diag(truth.gyro_scale)
+                                                   - 1.0))) * 100.0,
         "acc_skew_error_pct": float(np.max(np.abs(0.5 * (acc_left + acc_left.T) - np.eye(3)))) * 100.0,
         "gyro_matrix_error_pct": float(np.max(np.abs(fitted.gyro_scale @ np.linalg.inv(truth.gyro_scale)
                                                      - acc_left))) * 100.0,

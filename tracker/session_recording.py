@@ -245,7 +245,8 @@ def read_header(f: IO[bytes], path: Path) -> dict:
     if start != MAGIC:
         if start.startswith(MAGIC[:9]):
             raise RecordingError(f"{path} is a session recording of another version "
-                                 f"({start.strip().decode('ascii', 'replace')}); this EnergyBall reads {MAGIC.strip().decode()}")
+                                 f"({start.strip().decode('ascii', 'replace')}); "
+                                 f"this EnergyBall reads {MAGIC.strip().decode()}")
         raise RecordingError(f"{path} is not an EnergyBall session recording (it does not start with "
                              f"{MAGIC.strip().decode()})")
     header = read_header_line(f, path, "session", MAX_HEADER_BYTES)

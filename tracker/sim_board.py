@@ -21,7 +21,8 @@ from .sim import STENCIL_REACH_S, Simulator
 
 RATE_HZ = BoardSettings.rate_hz  # the firmware's defaults
 ACC_FS_G, GYR_FS_DPS = BoardSettings.acc_fs_g, BoardSettings.gyr_fs_dps
-BLOCK = 800  # samples the simulator computes ahead at once (4 s): a change of the motion within them has the rest computed again
+BLOCK = 800  # samples the simulator computes ahead at once (4 s): a change of the motion within them has the
+# rest computed again
 Counts = tuple[tuple[int, int, int], tuple[int, int, int], tuple[int, int, int], int, int]
 # acc, gyr, mag, flags (the raw frame's flags word: the flex ADC, the full scales and the magnetometer's
 # valid bit) and the die's TEMP_OUT

@@ -181,7 +181,8 @@ def _trials(players: dict[str, PlayerProfile], trials: int, seed: int, gestures:
             progress: Callable[[str], None] | None, workers: int,
             magnetometer: bool) -> dict[str, list[TrialResult]]:
     """Every player's trials (seeds seed, seed + 1, ...), spread over ``workers`` processes."""
-    jobs = [(name, (profile, seed + k, gestures, magnetometer)) for name, profile in players.items() for k in range(trials)]
+    jobs = [(name, (profile, seed + k, gestures, magnetometer))
+            for name, profile in players.items() for k in range(trials)]
     results: dict[str, list[TrialResult]] = {name: [] for name in players}
     with ProcessPoolExecutor(max_workers=max(1, workers)) as pool:
         for (name, _), r in zip(jobs, pool.map(_run, [job for _, job in jobs])):

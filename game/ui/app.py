@@ -98,7 +98,8 @@ class Game:
     log: SessionLog | None = None  # hears the session (a recording, or a replay comparing)
     window: tuple[int, int] = WINDOW  # the window's size (the mouse aims across it)
     board_virtual: bool = False  # the board is the virtual player's
-    board_opener: Callable[[str | None, bool], SampleInput] | None = None  # None: open the port (a replay's gives its own)
+    # None: open the port (a replay's gives its own)
+    board_opener: Callable[[str | None, bool], SampleInput] | None = None
 
     # -------------------------------------------------------- input
 
@@ -1001,7 +1002,8 @@ class App:
         game = self.game
         game.link_state = game.tracker.state() if game.tracker else SourceState()
         if game.log is not None:
-            game.log.frame(dt, [event_json(e) for e in events if e.type in RECORDED], game.link_state if game.tracker else None)
+            recorded = [event_json(e) for e in events if e.type in RECORDED]
+            game.log.frame(dt, recorded, game.link_state if game.tracker else None)
         for event in events:
             if event.type == pygame.QUIT:
                 self.screen = Quit()

@@ -94,9 +94,10 @@ class BoardSetup:
     """The procedures for one board, one phase at a time (module docstring).
 
     ``board_id``: the board's file (:func:`tracker.calibration.board_id_of`); ``calibration``:
-    the board's as loaded (None: none saved), updated as each fit is saved; ``directory``: where board files live (None: :func:`tracker.calibration.boards_dir`);
-    ``maker``: told every status (``--virtual``); ``applied``: called with the board's
-    calibration as saved (every procedure's fields), for the game to use it at once.
+    the board's as loaded (None: none saved), updated as each fit is saved; ``directory``: where
+    board files live (None: :func:`tracker.calibration.boards_dir`); ``maker``: told every
+    status (``--virtual``); ``applied``: called with the board's calibration as saved (every
+    procedure's fields), for the game to use it at once.
     """
 
     board_id: str

@@ -221,7 +221,8 @@ class TownSettings:
              "alley_chance and plot_car_chance must be at most 1"),
             (self.lot_length_m[0] > 0.0 and self.lot_min_m > 0.0 and self.lamp_spacing_m > 0.0,
              "lot_length_m, lot_min_m and lamp_spacing_m must be more than 0"),
-            (self.deep_block_m > 2 * self.lot_min_m, f"deep_block_m must be more than twice lot_min_m ({self.lot_min_m})"),
+            (self.deep_block_m > 2 * self.lot_min_m,
+             f"deep_block_m must be more than twice lot_min_m ({self.lot_min_m})"),
         )
         for ok, message in checks:
             if not ok:
@@ -423,9 +424,11 @@ class _Builder:
         mouths = []
         depth = 2.5  # the mouth: this much of the street in front of the alley stays clear
         if alley.along_x:
-            mouths = [(alley.x0 - depth, alley.y0, alley.x0, alley.y1), (alley.x1, alley.y0, alley.x1 + depth, alley.y1)]
+            mouths = [(alley.x0 - depth, alley.y0, alley.x0, alley.y1),
+                      (alley.x1, alley.y0, alley.x1 + depth, alley.y1)]
         else:
-            mouths = [(alley.x0, alley.y0 - depth, alley.x1, alley.y0), (alley.x0, alley.y1, alley.x1, alley.y1 + depth)]
+            mouths = [(alley.x0, alley.y0 - depth, alley.x1, alley.y0),
+                      (alley.x0, alley.y1, alley.x1, alley.y1 + depth)]
         opening = [m for m in mouths if any(a.kind != "alley" and overlaps(m, _rect(a)) for a in self.open)]
         self.mouths.extend(opening)
         if opening:

@@ -117,8 +117,8 @@ def test_unknown_parameter_is_a_clear_error():
 
 
 def _inclination_errors_deg(name: str, keep: np.ndarray) -> np.ndarray:
-    """The filter on a swinging arm (tracker.sim, sensor noise only) fed only the samples in ``keep``, dt from their times;
-    the angle between estimated and true vertical, per kept sample."""
+    """The filter on a swinging arm (tracker.sim, sensor noise only) fed only the samples in
+    ``keep``, dt from their times; the angle between estimated and true vertical, per kept sample."""
     from tracker.sim import Simulator, arm_chain, arm_swing, mpu9250
     data = Simulator(arm_chain(), arm_swing(), mpu9250(offset=False), seed=2).simulate(60.0, RATE)
     f = make(name)

@@ -207,7 +207,8 @@ def test_switching_static_uses_gravity_and_levels_at_once():
 # ---------------------------------------------------------------- constant rates
 
 
-@pytest.mark.parametrize("name, tolerance", [("madgwick", lead_deg(1.0)), ("switching", 1e-6), ("hinge", lead_deg(0.8))])
+@pytest.mark.parametrize("name, tolerance",
+                         [("madgwick", lead_deg(1.0)), ("switching", 1e-6), ("hinge", lead_deg(0.8))])
 def test_constant_body_rate_is_tracked(name, tolerance):
     """Any constant rate; for the hinge filter, a constant rate about its hinge."""
     if name == "hinge":

@@ -177,7 +177,8 @@ class BoardPictures:
             rect = self.text.blit(surface, f"{i + 1} {steps[i]}", size, (255, 230, 120) if lit else DIM_TEXT,
                                   (x, band.centery), "midright")
             if lit:
-                pygame.draw.line(surface, (255, 230, 120), (rect.left, rect.bottom + 2), (rect.right, rect.bottom + 2), 2)
+                pygame.draw.line(surface, (255, 230, 120), (rect.left, rect.bottom + 2),
+                                 (rect.right, rect.bottom + 2), 2)
             x = rect.left - 30
 
     def draw_setup_text(self, surface: pygame.Surface, rect, message: str, lines: Sequence[str], keys: str,

@@ -71,4 +71,5 @@ class Plots:
             if len(pts) >= 2:
                 pygame.draw.lines(surface, colour, False, pts, 1)
             if not single:
-                self.text.blit(surface, "xyz"[c % 3], small - 2, colour, (area.right - 36 + 12 * c, area.top - small - 1))
+                self.text.blit(surface, "xyz"[c % 3], small - 2, colour,
+                               (area.right - 36 + 12 * c, area.top - small - 1))

@@ -125,7 +125,8 @@ class Screens:
         yaw = avatar.body_yaw
         rel = pts - pts[0]
         c, s = math.cos(yaw), math.sin(yaw)
-        body = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1], rel[:, 2]])  # x right, y fwd
+        # x right, y forward
+        body = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1], rel[:, 2]])
         small = max(14, rect.height // 14)
         half = rect.width // 2
         reach = 0.75

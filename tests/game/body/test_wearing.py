@@ -147,6 +147,7 @@ def test_recenter_makes_where_i_point_forward():
     # The player turns 70 deg to the right and points ahead: after recenter that is forward.
     turned = Rotation.from_euler("z", -70, degrees=True) * Rotation.from_euler("x", 90, degrees=True)
     pose = ArmPose(wxyz(HEADING * turned * q_bs), 0.0, 0.0)
-    assert avatar.update(pose).pointing == pytest.approx([math.sin(math.radians(70)), math.cos(math.radians(70)), 0], abs=1e-6)
+    expected = [math.sin(math.radians(70)), math.cos(math.radians(70)), 0]
+    assert avatar.update(pose).pointing == pytest.approx(expected, abs=1e-6)
     avatar.wearing = recenter(avatar, pose)
     assert avatar.update(pose).pointing == pytest.approx([0, 1, 0], abs=1e-6)

@@ -129,8 +129,8 @@ def test_a_changed_input_is_reported_as_a_difference(keyboard_session, tmp_path)
     path, _ = keyboard_session
     source = SessionReader(path)
     changed = tmp_path / "changed.ebs"
-    writer = SessionWriter(changed, {k: v for k, v in source.header.items() if k not in ("format", "version", "records")},
-                           source.header["records"])
+    header = {k: v for k, v in source.header.items() if k not in ("format", "version", "records")}
+    writer = SessionWriter(changed, header, source.header["records"])
     dropped = None
     for r in source.records():
         if isinstance(r, BinaryRecord):

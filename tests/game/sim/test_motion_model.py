@@ -261,8 +261,9 @@ def test_sensor_frame_convention_in_the_calibration_poses():
     s = session(STILL, seed=1, gestures=0, idle_s=0)
     sim = Simulator(arm_chain(), s.motion)
     (d0, d1), (f0, f1) = s.calibration
-    assert sim.truth(np.linspace(d0 + 0.01, d1 - 0.01, 5)).acc[:, 0] == pytest.approx(np.tile([0, 0, 9.81], (5, 1)), abs=1e-6)
-    assert sim.truth(np.linspace(f0 + 0.01, f1 - 0.01, 5)).acc[:, 0] == pytest.approx(np.tile([-9.81, 0, 0], (5, 1)), abs=1e-6)
+    down, forward = np.tile([0, 0, 9.81], (5, 1)), np.tile([-9.81, 0, 0], (5, 1))
+    assert sim.truth(np.linspace(d0 + 0.01, d1 - 0.01, 5)).acc[:, 0] == pytest.approx(down, abs=1e-6)
+    assert sim.truth(np.linspace(f0 + 0.01, f1 - 0.01, 5)).acc[:, 0] == pytest.approx(forward, abs=1e-6)
     gyr = sim.truth(np.linspace(d1, f0, 50)).gyr[:, 0]
     assert np.abs(gyr[:, [0, 2]]).max() < 1e-6 and gyr[:, 1].min() > -1e-9 and gyr[:, 1].max() > 1.0
 
@@ -482,8 +483,9 @@ def test_the_strap_rocks_the_board_on_the_arm_not_the_arm():
 
 def test_the_shoulder_rises_with_the_arm_and_bounces_while_walking():
     """The chain hangs from a shoulder that moves (Script, "Shoulder"): the board stays its
-    0.3 m from it (within what the strap rocks it); still outside idle stretches with the arm down, raised 2 cm (half of the 4 cm
-    overhead) with the arm level; walking bounces it by 2-5 cm from top to bottom."""
+    0.3 m from it (within what the strap rocks it); still outside idle stretches with the arm
+    down, raised 2 cm (half of the 4 cm overhead) with the arm level; walking bounces it by 2-5 cm
+    from top to bottom."""
     profile = PlayerProfile()
     script = session(profile, seed=2, gestures=6, idle_s=(20.0, 30.0))
     t = np.arange(0.0, script.duration_s, 0.01)

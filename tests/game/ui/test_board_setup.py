@@ -22,8 +22,8 @@ import pytest  # noqa: E402
 from hypothesis import given, settings, strategies as st  # noqa: E402
 
 from game.ui.app import App, BoardSetupScreen, Menu, Play  # noqa: E402
-from game.ui.board_setup import (ACCEL, ACCEL_DONE, FAILED, MAG, MAG_DONE, WARM, WARM_DONE, WARM_WAIT, BoardSetup,  # noqa: E402
-                                 MakerInput, fresh_samples)
+from game.ui.board_setup import (ACCEL, ACCEL_DONE, FAILED, MAG, MAG_DONE, WARM, WARM_DONE,  # noqa: E402
+                                 WARM_WAIT, BoardSetup, MakerInput, fresh_samples)
 from game.ui.preferences import Preferences  # noqa: E402
 from game.ui.render.board import (BOARD_FACES, face_normal, globe_cells, globe_image, rotation_to_up,  # noqa: E402
                                   view_rotation, visible_faces)

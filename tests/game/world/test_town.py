@@ -44,7 +44,8 @@ def test_the_three_layouts_differ_in_their_open_ground():
     assert all(min(s.x0, s.y0) == -half and max(s.x1, s.y1) == half for s in streets["grid"])
     # crossroads: a square at the origin; two 8 m main streets through it
     assert len(squares["crossroads"]) == 1
-    mains = [s for s in streets["crossroads"] if math.isclose(s.width, 8.0) and s.x0 <= 0.0 <= s.x1 and s.y0 <= 0.0 <= s.y1]
+    mains = [s for s in streets["crossroads"]
+             if math.isclose(s.width, 8.0) and s.x0 <= 0.0 <= s.x1 and s.y0 <= 0.0 <= s.y1]
     assert len(mains) == 2 and {s.along_x for s in mains} == {True, False}
     # ring: a square, and no street reaches the origin (the ring goes round the square)
     assert len(squares["ring"]) == 1
