@@ -308,8 +308,9 @@ def cmd_gestures_eval(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(report))
     else:
+        width = max(len(key) for key in report)
         for key, value in report.items():
-            print(f"{key:26s} {value}")
+            print(f"{key:{width}s} {value}")
     return 0
 
 

@@ -16,8 +16,11 @@ Matching: a reported launch belongs to a true one when it comes between the
 start of the elbow's straightening (less 50 ms) and 400 ms after the elbow
 crossed the launch threshold; each true launch takes at most one. Latency is
 the time from that crossing to the report; aim error the angle between the
-reported direction and where the arm truly pointed. A report matching none is
-a false launch; those inside idle stretches count toward the idle rate.
+reported direction and where the arm truly pointed, split into its azimuth
+(about the vertical: what the heading gets wrong) and its elevation (what the
+inclination gets wrong), so a researcher sees which part of the fusion a miss
+comes from. A report matching none is a false launch; those inside idle
+stretches count toward the idle rate.
 """
 
 from __future__ import annotations
@@ -60,6 +63,9 @@ class TrialResult:
     latencies_ms: list[float] = field(default_factory=list)
     aim_errors_deg: list[float] = field(default_factory=list)
     late_aim_errors_deg: list[float] = field(default_factory=list)  # launches in the session's last quarter
+    aim_split_deg: list[tuple[float, float]] = field(default_factory=list)  # each aim error's signed parts
+    # across (azimuth) and up (elevation), degrees (aim_split_deg)
+    late_aim_split_deg: list[tuple[float, float]] = field(default_factory=list)  # ... of the late launches
     calibration: str = ""  # what the calibrations said, for the user
     calibration_ok: bool = False  # the maker's, the hold's and the wearing calibration's first attempts all worked
 
@@ -94,6 +100,23 @@ def maker_calibration(profile: PlayerProfile, seed: int) -> tuple[BoardCalibrati
     """
     cal, problems = calibrate(SimulatedMaker(profile.sensor_errors(), seed))
     return cal, "; ".join(problems) or None
+
+
+def azimuth_elevation_deg(direction: Sequence[float]) -> tuple[float, float]:
+    """A unit direction (x right, y forward, z up) as its azimuth from forward, clockwise seen
+    from above, and its elevation above the horizontal, in degrees."""
+    x, y, z = direction
+    return math.degrees(math.atan2(x, y)), math.degrees(math.asin(max(-1.0, min(1.0, z))))
+
+
+def aim_split_deg(reported: Sequence[float], true: Sequence[float]) -> tuple[float, float]:
+    """How far ``reported`` aims from ``true`` across and up, signed, degrees: the azimuth's
+    difference (wrapped to +-180) times the cosine of the true elevation, as a turn about the
+    vertical moves a direction that far along the sphere, and the elevation's difference. For
+    small errors they are the sides of a right triangle whose hypotenuse is the aim error."""
+    (az, el), (true_az, true_el) = azimuth_elevation_deg(reported), azimuth_elevation_deg(true)
+    across = (az - true_az + 180.0) % 360.0 - 180.0
+    return across * math.cos(math.radians(true_el)), el - true_el
 
 
 def _within(t: float, interval: tuple[float, float], last_s: float | None = None) -> bool:
@@ -152,7 +175,8 @@ def score_launches(truth: Sequence[TrueLaunch], idle_intervals: Sequence[tuple[f
                    late_from: float = math.inf) -> list[TrueLaunch]:
     """Match reported launches to the true ones (module docstring) into ``result``; the unmatched true ones.
 
-    The aim errors of launches made from ``late_from`` on also go to ``late_aim_errors_deg``.
+    The aim errors of launches made from ``late_from`` on also go to ``late_aim_errors_deg``
+    (and their split to ``late_aim_split_deg``).
     """
     unmatched = list(truth)
     for event in launches:
@@ -167,8 +191,10 @@ def score_launches(truth: Sequence[TrueLaunch], idle_intervals: Sequence[tuple[f
         result.latencies_ms.append(1000.0 * (event.t - match.t_straight))
         cos = float(np.clip(np.dot(event.direction, match.direction_body), -1.0, 1.0))
         result.aim_errors_deg.append(math.degrees(math.acos(cos)))
+        result.aim_split_deg.append(aim_split_deg(event.direction, match.direction_body))
         if match.t_straight >= late_from:
             result.late_aim_errors_deg.append(result.aim_errors_deg[-1])
+            result.late_aim_split_deg.append(result.aim_split_deg[-1])
     result.idle_minutes = sum(t1 - t0 for t0, t1 in idle_intervals) / 60.0
     return unmatched
 
@@ -219,6 +245,8 @@ def summarise(results: list[TrialResult]) -> dict:
     latency = [x for r in results for x in r.latencies_ms]
     aim = [x for r in results for x in r.aim_errors_deg]
     late = [x for r in results for x in r.late_aim_errors_deg]
+    split = [x for r in results for x in r.aim_split_deg]
+    late_split = [x for r in results for x in r.late_aim_split_deg]
 
     def pct(values: list[float], q: float) -> float | None:
         return round(float(np.percentile(values, q)), 2) if values else None
@@ -231,6 +259,10 @@ def summarise(results: list[TrialResult]) -> dict:
         "latency_ms_median": pct(latency, 50), "latency_ms_p95": pct(latency, 95),
         "aim_error_deg_median": pct(aim, 50), "aim_error_deg_p95": pct(aim, 95),
         "aim_error_deg_median_late": pct(late, 50),
+        "aim_azimuth_error_deg_median": pct([abs(az) for az, _ in split], 50),
+        "aim_elevation_error_deg_median": pct([abs(el) for _, el in split], 50),
+        "aim_azimuth_error_deg_median_late": pct([abs(az) for az, _ in late_split], 50),
+        "aim_elevation_error_deg_median_late": pct([abs(el) for _, el in late_split], 50),
         "calibration_ok_rate": round(sum(r.calibration_ok for r in results) / len(results), 4)
         if results else None,
         "trials": len(results), "launches": true, "idle_minutes": round(idle_minutes, 2),

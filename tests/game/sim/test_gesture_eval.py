@@ -13,8 +13,8 @@ import pytest
 
 from game.body.gestures import GestureEvent
 from game.body.tracking import Tracking
-from game.sim.gesture_eval import (TrialResult, board_stream, maker_calibration, run_trial, score_launches,
-                                     summarise)
+from game.sim.gesture_eval import (TrialResult, aim_split_deg, board_stream, maker_calibration, run_trial,
+                                     score_launches, summarise)
 from game.sim.motion_model import PlayerProfile, Segment, Session, TrueLaunch, catalogue, session
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -63,6 +63,40 @@ def test_late_launches_are_those_made_in_the_last_quarter():
     assert report["calibration_ok_rate"] == 0.5
 
 
+def _direction(azimuth_deg, elevation_deg):
+    """A unit vector (x right, y forward, z up) from its azimuth and elevation, worked by hand."""
+    az, el = math.radians(azimuth_deg), math.radians(elevation_deg)
+    return (math.cos(el) * math.sin(az), math.cos(el) * math.cos(az), math.sin(el))
+
+
+def test_an_aim_error_splits_into_azimuth_and_elevation():
+    assert aim_split_deg(_direction(3.0, 0.0), (0.0, 1.0, 0.0)) == pytest.approx((3.0, 0.0))
+    assert aim_split_deg(_direction(0.0, 2.0), (0.0, 1.0, 0.0)) == pytest.approx((0.0, 2.0))
+    wrapped = 2.0 * math.cos(math.radians(15.0))  # 2 deg of azimuth across the back, at 15 deg up
+    assert aim_split_deg(_direction(-179.0, 10.0), _direction(179.0, 15.0)) == pytest.approx((wrapped, -5.0))
+    # 10 deg of azimuth at 60 deg of elevation is a smaller angle: cos a = cos^2 60 cos 10 + sin^2 60,
+    # about 5 deg, what the split gives across: 10 cos 60
+    reported, true = _direction(10.0, 60.0), _direction(0.0, 60.0)
+    assert aim_split_deg(reported, true) == pytest.approx((5.0, 0.0))
+    angle = math.degrees(math.acos(0.25 * math.cos(math.radians(10.0)) + 0.75))
+    result = TrialResult(true_launches=1)
+    truth = [TrueLaunch(10.0, 10.2, true, 1.0)]
+    score_launches(truth, [], [launch(10.25, reported)], result, late_from=5.0)
+    assert result.aim_errors_deg == pytest.approx([angle]) and angle == pytest.approx(5.0, abs=0.05)
+    assert result.aim_split_deg == result.late_aim_split_deg == [pytest.approx((5.0, 0.0))]
+
+
+def test_the_report_gives_the_median_size_of_each_part():
+    early, late = TrialResult(aim_split_deg=[(-3.0, 1.0), (2.0, -4.0)]), TrialResult()
+    late.aim_split_deg = late.late_aim_split_deg = [(0.5, -6.0), (-7.0, 0.25), (1.0, 1.0)]
+    report = summarise([early, late])
+    assert report["aim_azimuth_error_deg_median"] == 2.0  # of 3, 2, 0.5, 7, 1
+    assert report["aim_elevation_error_deg_median"] == 1.0  # of 1, 4, 6, 0.25, 1
+    assert report["aim_azimuth_error_deg_median_late"] == 1.0  # of 0.5, 7, 1
+    assert report["aim_elevation_error_deg_median_late"] == 1.0  # of 6, 0.25, 1
+    assert summarise([TrialResult()])["aim_azimuth_error_deg_median_late"] is None
+
+
 def test_a_failed_maker_calibration_is_a_reported_figure(monkeypatch):
     from tracker import accel_procedure
     from tracker.calibration import SixPoseResult
@@ -94,6 +128,12 @@ def test_a_short_run_of_the_whole_pipeline_meets_the_targets():
     assert report["false_launches"] == 0
     assert report["aim_error_deg_median"] <= 3.0
     assert report["latency_ms_median"] <= 60.0
+    # each launch's split: the two parts make up the whole, as the sides of a right triangle do for
+    # errors of a few degrees
+    for r in results:
+        assert len(r.aim_split_deg) == len(r.aim_errors_deg) == r.matched
+        for (across, up), total in zip(r.aim_split_deg, r.aim_errors_deg):
+            assert math.hypot(across, up) == pytest.approx(total, rel=0.02, abs=0.01)
 
 
 def test_the_worst_plausible_players_start_up_holds_are_all_still():
@@ -138,7 +178,8 @@ def test_gestures_eval_json_shape():
     report = json.loads(r.stdout)
     assert {"launch_precision", "launch_recall", "false_launches_per_min", "latency_ms_median",
             "latency_ms_p95", "aim_error_deg_median", "aim_error_deg_p95", "aim_error_deg_median_late",
-            "calibration_ok_rate", "trials"} <= set(report)
+            "aim_azimuth_error_deg_median", "aim_elevation_error_deg_median", "aim_azimuth_error_deg_median_late",
+            "aim_elevation_error_deg_median_late", "calibration_ok_rate", "trials"} <= set(report)
 
 
 def test_envelope_and_profile_do_not_go_together(tmp_path):
