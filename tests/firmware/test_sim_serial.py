@@ -20,8 +20,8 @@ import serial
 from tracker import protocol as P
 from tracker.link import Link, LinkSettings
 
-from .test_sim import (BOOT_S, FIRMWARE, OPTIBOOT_S, _boardsim_fails, _make, boardsim, elf,  # noqa: F401
-                       running_board)
+from .test_sim import (BOOT_S, FIRMWARE, OPTIBOOT_S, RATE_HZ, _boardsim_fails, _make, boardsim,  # noqa: F401
+                       elf, running_board, samples_until)
 
 LEGACY_ELF = FIRMWARE / "build" / "energyball-legacy.elf"
 F_CPU = 16_000_000
@@ -104,12 +104,12 @@ def test_an_open_that_resets_the_board_in_the_middle_of_a_read_leaves_a_bus_it_c
         time.sleep(0.8)  # the board boots by itself and reads the MPU every 5 ms
         with Link(LinkSettings(port=str(board.link), reconnect=False)) as link:
             hello = link.hello
-            got = list(link.samples(1.0))
+            got = samples_until(link, lambda got: len(got) >= RATE_HZ)
         report = board.report()
     assert (report["line"]["resets"], report["i2c"]["stuck"]) == (1, 1), report["i2c"]
     assert report["i2c"]["cleared"] >= 1 and not report["i2c"]["blocked"], report["i2c"]
     assert hello is not None and not hello.errors, hello
-    assert len(got) >= 190, f"{len(got)} samples in 1 s at 200 Hz"
+    assert len(got) >= 190, f"{len(got)} samples of the {RATE_HZ} asked for"
 
 
 def test_the_9600_baud_fallback_finds_a_text_board_without_resetting_it(
@@ -117,10 +117,10 @@ def test_the_9600_baud_fallback_finds_a_text_board_without_resetting_it(
     with running_board(boardsim, legacy_elf, tmp_path) as board:
         with Link(LinkSettings(port=str(board.link), reconnect=False)) as link:
             legacy = link.health().legacy_text
-            got = list(link.samples(1.0))
+            got = samples_until(link, lambda got: len(got) >= 20)  # the sketch prints 20 a second
         report = board.report()
     assert legacy, "the link did not take the board for the paper's text stream"
-    assert len(got) >= 15, f"{len(got)} lines in 1 s (the sketch prints 20)"
+    assert len(got) >= 15, f"{len(got)} lines of the 20 asked for"
     assert report["line"]["resets"] == 1, "trying 9600 baud reopened the port and reset the board"
 
 
