@@ -16,10 +16,10 @@ Matching: a reported launch belongs to a true one when it comes between the
 start of the elbow's straightening (less 50 ms) and 400 ms after the elbow
 crossed the launch threshold; each true launch takes at most one. Latency is
 the time from that crossing to the report; aim error the angle between the
-reported direction and where the arm truly pointed, split into its azimuth
-(about the vertical: what the heading gets wrong) and its elevation (what the
-inclination gets wrong), so a researcher sees which part of the fusion a miss
-comes from. A report matching none is a false launch; those inside idle
+reported direction and where the arm truly pointed, split into a part across
+(from the azimuth: what the heading gets wrong) and a part up (the elevation:
+what the inclination gets wrong; :func:`aim_split_deg`), so a researcher sees
+which part of the fusion a miss comes from. A report matching none is a false launch; those inside idle
 stretches count toward the idle rate.
 """
 
