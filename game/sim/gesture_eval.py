@@ -19,8 +19,8 @@ the time from that crossing to the report; aim error the angle between the
 reported direction and where the arm truly pointed, split into a part across
 (from the azimuth: what the heading gets wrong) and a part up (the elevation:
 what the inclination gets wrong; :func:`aim_split_deg`), so a researcher sees
-which part of the fusion a miss comes from. A report matching none is a false launch; those inside idle
-stretches count toward the idle rate.
+which part of the fusion a miss comes from. A report matching none is a false
+launch; those inside idle stretches count toward the idle rate.
 """
 
 from __future__ import annotations
