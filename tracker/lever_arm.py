@@ -33,21 +33,39 @@ about 4 Hz; a linear relation low-passed on both sides still holds, and
 gravity is taken off before, since it turns with the board): it learns o from the
 arm's moves, not from the board rocking on the soft tissue at 5-25 Hz, which
 turns it about a pivot of its own a centimetre or two under the strap and
-would pull o toward that. The correction takes the rates as measured, w'
-at the sample's own instant (the three-point backward difference of the
-last three rates, exact for a rate quadratic in time: B. Fornberg,
-"Generation of finite difference formulas on arbitrarily spaced grids",
-Math. Comp. 51(184), 1988; the difference of two samples is w' half a
-step earlier, and a launch's snap, w' x o some tens of m/s^2, taken off
-half a step late left a lean the filter's bias loop learned: README, "A
-step taken for a ramp"). A tremor turns the humerus about the
-shoulder, at up to 12 Hz, and a low-passed correction would lag it and add
-error rather than take it off (a fast, shaky simulated player's two-minute
-median aim went from 2.0 deg without the correction to 3.9 with a low-passed
-one, 2.6 with this: README, "The accelerometer at the shoulder"). The rocking's own
-accelerations are then corrected with the shoulder's lever, wrongly, but
-they last a few tenths of a second after a sharp move and average out in
-the filter's 3 s low-pass.
+would pull o toward that. The correction takes the rates as measured: a
+tremor turns the humerus about the shoulder at up to 12 Hz, and a low-passed
+correction would lag it and add error rather than take it off (a fast, shaky
+simulated player's two-minute median aim went from 2.0 deg without the
+correction to 3.9 with a low-passed one: README, "The accelerometer at the
+shoulder").
+
+The rocking's own accelerations are then corrected with the shoulder's lever,
+wrongly, some tens of m/s^2 each sample; what must hold is that they average
+out in the filter's 3 s low-pass, and that decides how K o is sampled. The
+filter low-passes the readings turned into its frame I, and in any frame,
+turned so, K o is the second derivative of the turned offset,
+R K o = d^2/dt^2 (R o), whose mean over a bounded rocking is nothing. The
+correction is therefore K o's mean over the sample's interval, taken from
+that identity rather than from a w' at an instant: (R o)' = R (w x o), so
+
+    mean K o = R_k^T (R_k (w_k x o) - R_k-1 (w_k-1 x o)) / dt
+             = (w_k x o - R_step^T (w_k-1 x o)) / dt,
+
+R_step the turn over the interval by the sample's rate, the same step the
+filter integrates (DefaultFilter, step 1), so its sum over any stretch,
+turned into frame I, is exactly the change of R (w x o) between its ends.
+(A w' at each instant, the three-point backward difference exact for a
+quadratic, B. Fornberg, Math. Comp. 51(184), 1988, reads a 23.5 Hz rocking at
+200 Hz 15 % too large, (3 - 4 z + z^2) / (2 h) against i w with
+z = exp(-i w h); its product with the rocking's own turn averaged 2 m/s^2
+in frame I through a strap's 5 deg rocking at 23.5 Hz, a lean the bias loop
+learns: README, "The strap's rocking, sampled".) The filter turns a reading by its
+frame half a step before the sample less the accelerometer's lead over the
+gyroscope (``acc_lead_s``; DefaultFilter._correct_inclination); the mean is
+given in the frame of the interval's end, so it is turned back by that much,
+(I + h [w]x) to first order with h = dt / 2 - acc_lead_s, for the filter to
+turn it by R_k.
 """
 
 from __future__ import annotations
@@ -57,7 +75,7 @@ from dataclasses import dataclass, field
 
 from mypy_extensions import mypyc_attr
 
-from .fusion.qmath import rotate_inverse
+from .fusion.qmath import cross, from_rotvec, rotate_inverse
 from .lowpass import LowPass2
 
 Vec = tuple[float, float, float]
@@ -77,6 +95,8 @@ class LeverArmParams:
     solve_t: float = 1.0  # the fit is solved this often
     ridge: float = 0.5  # s^-4: o stays near 0 until K'K's mean over the window is well above this
     max_m: float = 0.6  # a fit farther than this from the board is refused (an arm is shorter)
+    acc_lead_s: float = 0.0  # how much more recent the accelerometer's reading is than the gyroscope's, s:
+    # the frame the filter turns a reading by (DefaultParams.acc_lead_s, the same value)
 
 
 @mypyc_attr(serializable=True)  # copy.deepcopy works when compiled
@@ -87,9 +107,7 @@ class LeverArmState:
     gyr_lp: LowPass2
     acc_lp: LowPass2  # the accelerometer less gravity, low-passed as the rate is
     rate_lp: Vec | None = None  # the low-passed rate at the last sample (rad/s): the fit's
-    rate: Vec | None = None  # the rate at the last sample (rad/s): the correction's ...
-    rate_before: Vec | None = None  # ... and at the one before it
-    dt_before: float = 0.0  # the interval between those two (s)
+    rate: Vec | None = None  # the rate at the last sample (rad/s): the correction's
     info: tuple[float, float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # sum K'K: xx xy xz yy yz zz
     rhs: Vec = (0.0, 0.0, 0.0)  # sum -K'(a - g_s)
     offset: Vec = (0.0, 0.0, 0.0)  # o: the shoulder seen from the board, sensor frame (m)
@@ -137,11 +155,23 @@ class LeverArm:
         if s.since_solve >= p.solve_t:
             s.since_solve = 0.0
             self._solve()
-        k = _k_matrix(gyr, _rate_now(s.rate_before, s.rate, gyr, s.dt_before, dt))  # the correction: every
-        s.rate_before, s.rate, s.dt_before = s.rate, gyr, dt  # turn of the bone
-        ox, oy, oz = s.offset
-        return (ax + k[0] * ox + k[1] * oy + k[2] * oz, ay + k[3] * ox + k[4] * oy + k[5] * oz,
-                az + k[6] * ox + k[7] * oy + k[8] * oz)
+        k = self._lever_acceleration(gyr, dt)  # the correction: every turn of the bone
+        return ax + k[0], ay + k[1], az + k[2]
+
+    def _lever_acceleration(self, gyr: Vec, dt: float) -> Vec:
+        """K o's mean over the last sample interval (module docstring), (w x o - R_step^T (w_before x o)) / dt
+        in the frame of the interval's end, turned back by h = dt / 2 - ``acc_lead_s`` into the frame
+        the filter turns a reading by. With no rate before, the centripetal part alone."""
+        s = self.state
+        before = s.rate if s.rate is not None else gyr
+        s.rate = gyr
+        o = s.offset
+        v, v_before = cross(gyr, o), cross(before, o)
+        vx, vy, vz = rotate_inverse(from_rotvec(gyr[0] * dt, gyr[1] * dt, gyr[2] * dt), v_before)
+        mean = ((v[0] - vx) / dt, (v[1] - vy) / dt, (v[2] - vz) / dt)
+        h = 0.5 * dt - self.params.acc_lead_s
+        turn = cross(gyr, mean)
+        return (mean[0] + h * turn[0], mean[1] + h * turn[1], mean[2] + h * turn[2])
 
     def _learn(self, k: Mat3, lever: Vec, dt: float) -> None:
         """Add one row block of the least squares K o = -(a - R^T g) (``lever``: a - R^T g),
@@ -182,22 +212,6 @@ def _rate_of_change(before: Vec | None, now: Vec, dt: float) -> Vec:
     if before is None:
         return (0.0, 0.0, 0.0)
     return ((now[0] - before[0]) / dt, (now[1] - before[1]) / dt, (now[2] - before[2]) / dt)
-
-
-def _rate_now(before2: Vec | None, before: Vec | None, now: Vec, h2: float, h1: float) -> Vec:
-    """w' at the latest of three rates, ``h1`` after the one ``before`` it, which came ``h2`` after
-    ``before2``: the three-point backward difference on an uneven grid (Fornberg 1988, module docstring),
-        w'(t) = w (2 h1 + h2) / (h1 (h1 + h2)) - w_1 (h1 + h2) / (h1 h2) + w_2 h1 / (h2 (h1 + h2)),
-    exact for a quadratic; (3 w - 4 w_1 + w_2) / (2 h) on an even one. With one rate before, the
-    two-point difference; with none, 0."""
-    if before is None:
-        return (0.0, 0.0, 0.0)
-    if before2 is None or not h2 > 0.0:
-        return _rate_of_change(before, now, h1)
-    h = h1 + h2
-    a, b, c = (h1 + h) / (h1 * h), h / (h1 * h2), h1 / (h2 * h)
-    return (a * now[0] - b * before[0] + c * before2[0], a * now[1] - b * before[1] + c * before2[1],
-            a * now[2] - b * before[2] + c * before2[2])
 
 
 def _k_matrix(w: Vec, wd: Vec) -> Mat3:
