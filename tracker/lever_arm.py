@@ -136,7 +136,8 @@ class LeverArm:
         return self.state.offset
 
     def at_shoulder(self, gyr: Vec, acc: Vec, q: Quat, dt: float) -> Vec:
-        """The specific force at the shoulder, a + K o, from the calibrated rate ``gyr`` (rad/s) and
+        """The specific force at the shoulder, a + K o (K o's mean over the sample's interval, module
+        docstring), from the calibrated rate ``gyr`` (rad/s) and
         ``acc`` (m/s^2) of one sample; ``q`` the filter's q_WS before it (scalar first), whose
         gravity the fit compares with. A reading that is not finite passes unchanged, unlearned."""
         gx, gy, gz = gyr
