@@ -95,8 +95,6 @@ class LeverArmParams:
     solve_t: float = 1.0  # the fit is solved this often
     ridge: float = 0.5  # s^-4: o stays near 0 until K'K's mean over the window is well above this
     max_m: float = 0.6  # a fit farther than this from the board is refused (an arm is shorter)
-    acc_lead_s: float = 0.0  # how much more recent the accelerometer's reading is than the gyroscope's, s:
-    # the frame the filter turns a reading by (DefaultParams.acc_lead_s, the same value)
 
 
 @mypyc_attr(serializable=True)  # copy.deepcopy works when compiled
@@ -135,11 +133,13 @@ class LeverArm:
         """o, the shoulder seen from the board in the sensor frame (m): 0 until fitted."""
         return self.state.offset
 
-    def at_shoulder(self, gyr: Vec, acc: Vec, q: Quat, dt: float) -> Vec:
+    def at_shoulder(self, gyr: Vec, acc: Vec, q: Quat, dt: float, acc_lead_s: float = 0.0) -> Vec:
         """The specific force at the shoulder, a + K o (K o's mean over the sample's interval, module
         docstring), from the calibrated rate ``gyr`` (rad/s) and
         ``acc`` (m/s^2) of one sample; ``q`` the filter's q_WS before it (scalar first), whose
-        gravity the fit compares with. A reading that is not finite passes unchanged, unlearned."""
+        gravity the fit compares with; ``acc_lead_s`` the filter's own (DefaultParams.acc_lead_s),
+        which sets the frame it turns the reading by. A reading that is not finite passes unchanged,
+        unlearned."""
         gx, gy, gz = gyr
         ax, ay, az = acc
         if not (-1e6 < gx + gy + gz + ax + ay + az < 1e6) or not 0.0 < dt < 1.0:  # also NaN
@@ -156,10 +156,10 @@ class LeverArm:
         if s.since_solve >= p.solve_t:
             s.since_solve = 0.0
             self._solve()
-        k = self._lever_acceleration(gyr, dt)  # the correction: every turn of the bone
+        k = self._lever_acceleration(gyr, dt, acc_lead_s)  # the correction: every turn of the bone
         return ax + k[0], ay + k[1], az + k[2]
 
-    def _lever_acceleration(self, gyr: Vec, dt: float) -> Vec:
+    def _lever_acceleration(self, gyr: Vec, dt: float, acc_lead_s: float) -> Vec:
         """K o's mean over the last sample interval (module docstring), (w x o - R_step^T (w_before x o)) / dt
         in the frame of the interval's end, turned back by h = dt / 2 - ``acc_lead_s`` into the frame
         the filter turns a reading by. With no rate before, the centripetal part alone."""
@@ -170,7 +170,7 @@ class LeverArm:
         v, v_before = cross(gyr, o), cross(before, o)
         vx, vy, vz = rotate_inverse(from_rotvec(gyr[0] * dt, gyr[1] * dt, gyr[2] * dt), v_before)
         mean = ((v[0] - vx) / dt, (v[1] - vy) / dt, (v[2] - vz) / dt)
-        h = 0.5 * dt - self.params.acc_lead_s
+        h = 0.5 * dt - acc_lead_s
         turn = cross(gyr, mean)
         return (mean[0] + h * turn[0], mean[1] + h * turn[1], mean[2] + h * turn[2])
 

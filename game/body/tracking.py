@@ -29,8 +29,7 @@ from tracker.flex import FlexCalibration, FlexTracker
 from tracker.fusion.base import Filter
 from tracker.fusion.default import DefaultFilter, for_mpu9250
 from tracker.fusion.qmath import about_z, as_vec, mul
-from tracker.lever_arm import LeverArm, LeverArmParams
-from tracker.mpu_dlpf import Dlpf
+from tracker.lever_arm import LeverArm
 
 from .heading_anchor import HeadingAnchor
 from .pose import ArmPose
@@ -44,12 +43,6 @@ def game_filter() -> DefaultFilter:
     return for_mpu9250(P.BOOT_RATE_HZ, at_shoulder=True)
 
 
-def game_lever() -> LeverArm:
-    """The lever-arm correction the game feeds that filter through, for the same board: its readings
-    turned as the filter turns them (``acc_lead_s``, :mod:`tracker.lever_arm`)."""
-    return LeverArm(LeverArmParams(acc_lead_s=Dlpf.for_rate(P.BOOT_RATE_HZ).acc_lead_s))
-
-
 @dataclass
 class Tracking:
     """Turns a stream of board samples into ArmPoses."""
@@ -61,7 +54,7 @@ class Tracking:
     filter: Filter = field(default_factory=game_filter)
     flex: FlexTracker = field(init=False)
     anchor: HeadingAnchor = field(default_factory=HeadingAnchor)  # "forward" as the field's heading settles
-    lever: LeverArm = field(default_factory=game_lever)  # the accelerometer moved to the shoulder
+    lever: LeverArm = field(default_factory=LeverArm)  # the accelerometer moved to the shoulder
     _last_t: float | None = None
     _dt: float = 0.005
 
@@ -96,7 +89,7 @@ class Tracking:
         if isinstance(self.filter, DefaultFilter):  # (the filters compared with it are fed as they were)
             b = self.filter.bias
             acc = self.lever.at_shoulder((gyr[0] - b[0], gyr[1] - b[1], gyr[2] - b[2]), (acc[0], acc[1], acc[2]),
-                                         self.filter.quat, dt)
+                                         self.filter.quat, dt, self.filter.params.acc_lead_s)
         q = self.filter.update(gyr, acc, mag if self.use_magnetometer else None, dt)
         if self.anchor.t0 is not None and isinstance(self.filter, DefaultFilter):
             offset = self.anchor.follow(t, self.filter.heading)

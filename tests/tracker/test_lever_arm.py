@@ -66,12 +66,12 @@ def test_a_strap_rocking_on_its_own_pivot_averages_to_gravity_in_the_filters_fra
     amp, L, lead = math.radians(5.0), 0.3, 0.00102
     seconds = 40.0
     gyr, acc = rocking(freq, amp, np.array([0.0, -0.02, 0.0]), seconds)
-    lever = LeverArm(LeverArmParams(solve_t=1e9, acc_lead_s=lead))  # solved never: o stays as set
+    lever = LeverArm(LeverArmParams(solve_t=1e9))  # solved never: o stays as set
     lever.state.offset = (L, 0.0, 0.0)
     q, dt, frame_i = (1.0, 0.0, 0.0, 0.0), 1.0 / RATE, []
     for g, a in zip(gyr.tolist(), acc.tolist()):
         q = normalize(integrate(q, tuple(g), dt))
-        f = np.array(lever.at_shoulder(tuple(g), tuple(a), q, dt))
+        f = np.array(lever.at_shoulder(tuple(g), tuple(a), q, dt, lead))
         frame_i.append(Q.rotate(np.array(q), f - (0.5 * dt - lead) * np.cross(g, f)))
     om = 2.0 * math.pi * freq
     assert np.allclose(np.mean(frame_i, axis=0), (0.0, 0.0, GRAVITY), atol=2.0 * amp * om * L / seconds)
