@@ -11,15 +11,23 @@ is code 3: the gyroscope's 41 Hz with 5.9 ms of delay, the accelerometer's
 earlier, and the gyroscope's and the accelerometer's by different amounts,
 which a real board adds to every fast move.
 
-:class:`FractionalDelay` reads a sampled signal that many seconds late (cubic
-Lagrange interpolation over four samples, none later than the one being read),
-the delay alone: the filters' attenuation is left out (under 5 % below 12 Hz,
-where the arm's moves, tremor and most of the strap's rocking lie, for a
-second-order response at 41 Hz), which leaves the simulated world the harsher.
+The register map names no filter, only those two figures per setting.
+:class:`Response` reads them as a first-order low-pass at the bandwidth (whose
+delay at low frequencies is 1 / (2 pi f)) and the rest of the delay as dead
+time: that rest comes out 1.65-2.17 ms for every gyroscope setting but the
+widest and 0.96-1.36 ms for every accelerometer setting, nearly one constant,
+as a fixed conversion latency would be, where a second-order filter would
+need a negative dead time at the narrow settings. Of the low-passes that fit
+the register map it is the gentlest above its band (a first order falls 6 dB
+per octave), which leaves the simulated world the harsher. What it takes out
+matters all the same: read at the 200 Hz samples' instants without it, a
+strap rocking at 23 Hz aliases into the samples as a turn the arm never made
+(README, "The chip's own low-pass").
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,7 +38,8 @@ GYRO_BANDWIDTH_HZ = (250.0, 184.0, 92.0, 41.0, 20.0, 10.0, 5.0)
 GYRO_DELAY_MS = (0.97, 2.9, 3.9, 5.9, 9.9, 17.85, 33.48)
 ACCEL_BANDWIDTH_HZ = (218.1, 218.1, 99.0, 44.8, 21.2, 10.2, 5.05)
 ACCEL_DELAY_MS = (1.88, 1.88, 2.88, 4.88, 8.87, 16.83, 32.48)
-TAPS = 4  # samples a delayed reading is interpolated from (cubic)
+INTERNAL_HZ = 1000.0  # the chip samples and low-passes at this rate with the DLPF on (sec. 4.6)
+TAIL = 12.0  # time constants of a response kept: e^-12 of a full-scale step is 0.2 counts of 16 bits
 
 
 def dlpf_for_rate(rate_hz: float) -> int:
@@ -58,6 +67,16 @@ class Dlpf:
         every setting but the widest (code 0, 1 kHz), where the accelerometer lags by 0.91 ms."""
         return self.gyro_delay_s - self.accel_delay_s
 
+    @property
+    def gyro(self) -> Response:
+        """How the gyroscope reads through this setting."""
+        return Response(self.gyro_hz, self.gyro_delay_s)
+
+    @property
+    def accel(self) -> Response:
+        """How the accelerometer reads through this setting."""
+        return Response(self.accel_hz, self.accel_delay_s)
+
     @classmethod
     def for_rate(cls, rate_hz: float) -> Dlpf:
         """The setting the firmware chooses at ``rate_hz``."""
@@ -67,40 +86,69 @@ class Dlpf:
 
 
 @dataclass(frozen=True)
-class FractionalDelay:
-    """A signal sampled at ``rate_hz`` read ``delay_s`` late: sample k's reading is the signal at
-    (k - delay * rate) / rate, a weighted sum of samples k + offsets[j] (all <= 0).
+class Response:
+    """A signal read through one of the filters: sample k's reading is the filter's output at
+    the last of the chip's internal 1 kHz samples up to t_k = k / rate (the divider passes every
+    n-th), a weighted sum of that internal sample and the ``taps`` - 1 before it.
 
-    The two samples either side of the delayed time and one more on each side (the
-    last four up to k when the delay is under a sample), and the Lagrange weights
-    w_j = prod_{i != j} (x - o_i) / (o_j - o_i) at x = -delay * rate: exact for a
-    cubic in time, and for a sine of f Hz sampled at rate r an error of about
-    (2 pi f / r)^4 / 24 of its amplitude at most (0.016 at 25 Hz and 200 Hz).
+    The filter (module docstring): g(s) = exp(-(s - D) / T) / T for s >= D, T = 1 / (2 pi
+    ``bandwidth_hz``) and D = ``delay_s`` - T, so that the low-frequency delay, the
+    response's first moment D + T, is the register map's. It acts on the signal
+    sampled at 1 kHz and joined by straight lines (the hat function L): the weight of
+    the internal sample m back is w_m = int g(s) L(s / h - m) ds, h = 1 ms, worked in
+    closed form (:meth:`weights`). The straight lines keep both the gain at 0 Hz (the
+    hats sum to 1) and the delay (their first moments are m), and attenuate by
+    sinc^2(f h) at most, 0.5 % at 41 Hz. The response is kept for TAIL time constants,
+    where it has fallen below half a count of the 16-bit reading.
     """
 
-    offsets: tuple[int, ...]
-    weights: tuple[float, ...]
+    bandwidth_hz: float
+    delay_s: float
 
-    @classmethod
-    def of(cls, delay_s: float, rate_hz: float) -> FractionalDelay:
-        if not delay_s >= 0.0 or not rate_hz > 0.0:
-            raise ValueError(f"a delay needs delay >= 0 and rate > 0, not {delay_s} s and {rate_hz} Hz")
-        x = -delay_s * rate_hz
-        last = min(0, int(np.floor(x)) + 2)
-        offsets = tuple(range(last - TAPS + 1, last + 1))
-        weights = tuple(float(np.prod([(x - oi) / (oj - oi) for oi in offsets if oi != oj])) for oj in offsets)
-        return cls(offsets, weights)
+    def __post_init__(self) -> None:
+        if not self.bandwidth_hz > 0.0 or not self.delay_s >= self.time_constant_s:
+            raise ValueError(f"a low-pass response needs bandwidth > 0 and delay >= 1 / (2 pi bandwidth), "
+                             f"not {self.bandwidth_hz} Hz and {self.delay_s} s")
 
     @property
-    def reach(self) -> int:
-        """How many samples before k its reading looks back."""
-        return -self.offsets[0]
+    def time_constant_s(self) -> float:
+        """T = 1 / (2 pi bandwidth): a first-order low-pass is 3 dB down at its bandwidth."""
+        return 1.0 / (2.0 * math.pi * self.bandwidth_hz)
 
-    def apply(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The delayed readings of x's samples ``reach`` onward (axis 0): ``reach`` fewer rows.
-        Summed term by term, so every sample is rounded alike wherever it sits in a block."""
-        n = len(x) - self.reach
-        total = np.zeros((max(0, n),) + x.shape[1:])
-        for o, w in zip(self.offsets, self.weights):
-            total = total + w * x[self.reach + o:self.reach + o + n]
+    @property
+    def dead_time_s(self) -> float:
+        """D: the register map's delay less the low-pass's own."""
+        return self.delay_s - self.time_constant_s
+
+    @property
+    def taps(self) -> int:
+        """Internal samples a reading weighs: up to D + TAIL T back, and the one before for the hat."""
+        return math.ceil((self.dead_time_s + TAIL * self.time_constant_s) * INTERNAL_HZ) + 2
+
+    def weights(self) -> NDArray[np.float64]:
+        """w_m for m = 0 .. taps - 1, summing to 1 (the tail beyond, e^-TAIL of the gain, left out).
+
+        In units of the internal period (d = D / h, c = T / h, s = sigma h), the
+        hat of sample m back is 1 - |sigma - m| over m - 1 <= sigma <= m + 1, and
+        g(sigma) = exp(-(sigma - d) / c) / c for sigma >= d. With E = exp(-(sigma - d) / c),
+        int (a + b sigma) E / c dsigma = -(a + b sigma + b c) E, so each half of the hat
+        contributes the difference of that at its ends, both clipped to sigma >= d.
+        """
+        d, c = self.dead_time_s * INTERNAL_HZ, self.time_constant_s * INTERNAL_HZ
+
+        def part(lo: float, hi: float, a: float, b: float) -> float:
+            """The integral of (a + b sigma) g(sigma) from lo to hi, both clipped to sigma >= d."""
+            lo, hi = max(lo, d), max(hi, d)
+            return (a + b * lo + b * c) * math.exp(-(lo - d) / c) - (a + b * hi + b * c) * math.exp(-(hi - d) / c)
+
+        w = np.array([part(m - 1.0, m, 1.0 - m, 1.0) + part(m, m + 1.0, 1.0 + m, -1.0) for m in range(self.taps)])
+        return w / w.sum()
+
+    def read(self, x: NDArray[np.float64], last: NDArray[np.int64]) -> NDArray[np.float64]:
+        """The readings made at internal samples ``last`` of x (the signal at 1 kHz, axis 0; each
+        ``last`` at least taps - 1). Summed term by term, so a reading is rounded alike wherever
+        it sits in a block."""
+        total = np.zeros((len(last),) + x.shape[1:])
+        for m, w in enumerate(self.weights()):
+            total = total + w * x[last - m]
         return total

@@ -37,7 +37,7 @@ data-sheet figures) are white noise, a constant offset, a warm-up drift of
 that offset, a random-walk drift, a scale error, quantisation and saturation
 (:class:`ErrorModel`). A real board adds its own magnetic errors and a room's
 field (:class:`MagneticErrors`), the flex sensor's own dynamics
-(:class:`FlexDynamics`) and the delays of the MPU-9250's low-pass filters
+(:class:`FlexDynamics`) and the MPU-9250's low-pass filters
 (:attr:`SensorErrors.dlpf`, :mod:`tracker.mpu_dlpf`); :func:`realistic_errors`
 builds a typical board.
 Random numbers come from ``numpy.random.SeedSequence(seed, spawn_key=...)``
@@ -54,7 +54,7 @@ values unchanged.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
@@ -62,7 +62,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import quat
 from .flex import FlexCircuit, FlexSensor
-from .mpu_dlpf import Dlpf, FractionalDelay
+from .mpu_dlpf import INTERNAL_HZ, Dlpf
 from .motion import EARTH_FIELD_UT, GRAVITY, SensorReading
 from .protocol import MAG_UT_PER_COUNT, STANDARD_GRAVITY
 
@@ -361,7 +361,7 @@ class SensorErrors:
     magnetic: MagneticErrors = MagneticErrors()
     flex_dynamics: FlexDynamics = FlexDynamics()
     dlpf: bool = False  # the gyroscope and accelerometer read through the MPU-9250's low-pass
-    # filters as the firmware sets them for the sample rate: their delays (tracker.mpu_dlpf)
+    # filters as the firmware sets them for the sample rate (tracker.mpu_dlpf)
 
 
 def mpu9250(noise: bool = True, offset: bool = True, scale: bool = False,
@@ -409,7 +409,7 @@ def realistic_errors(gyro_bias_dps: float = TYPICAL_GYRO_BIAS_DPS, noise_scale: 
     errors (:class:`MagneticErrors`), the flex sensor's dynamics
     (:class:`FlexDynamics`) and :data:`TYPICAL_FLEX_NOISE_COUNTS` of noise on
     the flex circuit. Its gyroscope and accelerometer read through the MPU-9250's
-    low-pass filters (:mod:`tracker.mpu_dlpf`: 5.9 ms and 4.88 ms late at 200 Hz).
+    low-pass filters (:mod:`tracker.mpu_dlpf`: 41 and 44.8 Hz, 5.9 and 4.88 ms late at 200 Hz).
     The accelerometer's zero-g level warms with the die (:func:`die_rise_c`) by
     :data:`ACC_ZERO_G_TEMPCO` per degC, on the gyroscope's warm-up curve, with the
     same share of it drawn anew at every power-on (thermal hysteresis, as the
@@ -476,11 +476,6 @@ class SimData:
     soft_iron: Array  # (S, 3, 3) the soft-iron matrices I + E drawn
     flex_reading_deg: Array  # (N,) the angle the flex sensor reports, after its dynamics
     die_c: Array  # (N,) the IMU die's temperature, degC (die_temperature)
-
-
-def _rows(truth: Truth, rows: slice) -> Truth:
-    """Some of the truth's samples."""
-    return Truth(*(getattr(truth, f.name)[rows] for f in fields(Truth)))
 
 
 def _stencil_sum(weights: Array, x: Array) -> Array:
@@ -866,24 +861,22 @@ class SampleStream:
         self._magnetic = _MagneticProcess(sim.errors.magnetic, n, sim.seed)
         self._flex = _FlexProcess(sim.errors.flex_dynamics, sim.flex_sensor.bent_deg, rate_hz, sim.seed)
         dlpf = Dlpf.for_rate(rate_hz)
-        self._delays = ((FractionalDelay.of(dlpf.gyro_delay_s, rate_hz),
-                         FractionalDelay.of(dlpf.accel_delay_s, rate_hz)) if sim.errors.dlpf else None)
+        self._filters = (dlpf.gyro, dlpf.accel) if sim.errors.dlpf else None
 
     def _sensed(self, k0: int, k1: int) -> tuple[Truth, Array, Array]:
         """The truth of samples k0 to k1 - 1, and the rates and specific forces the IMU reads at them:
-        the truth's, or with :attr:`SensorErrors.dlpf` the truth's as its low-pass filters delay them,
-        interpolated from the samples before (the first sample's held before sample 0)."""
-        if self._delays is None:
-            truth = self.sim.truth(np.arange(k0, k1) / self.rate_hz)
+        the truth's, or with :attr:`SensorErrors.dlpf` the truth sampled at the chip's internal 1 kHz
+        and read through its low-pass filters (:class:`tracker.mpu_dlpf.Response`; the first
+        sample's held before sample 0)."""
+        truth = self.sim.truth(np.arange(k0, k1) / self.rate_hz)
+        if self._filters is None or k1 <= k0:
             return truth, truth.gyr, truth.acc
-        gyr_delay, acc_delay = self._delays
-        reach = max(gyr_delay.reach, acc_delay.reach)
-        k = np.maximum(np.arange(k0 - reach, k1), 0)
-        span = self.sim.truth(np.arange(k[0], k1) / self.rate_hz)  # the block and the samples it reads
-        truth = _rows(span, slice(k0 - int(k[0]), None))
-        gyr, acc = span.gyr[k - k[0]], span.acc[k - k[0]]
-        return (truth, gyr_delay.apply(gyr[reach - gyr_delay.reach:]),
-                acc_delay.apply(acc[reach - acc_delay.reach:]))
+        gyr_filter, acc_filter = self._filters
+        # The internal sample each reading is made at: the last at or before its instant.
+        last = np.floor(np.arange(k0, k1) * (INTERNAL_HZ / self.rate_hz) + 1e-9).astype(np.int64)
+        first = int(last[0]) - max(gyr_filter.taps, acc_filter.taps) + 1
+        inner = self.sim.truth(np.maximum(np.arange(first, int(last[-1]) + 1), 0) / INTERNAL_HZ)
+        return truth, gyr_filter.read(inner.gyr, last - first), acc_filter.read(inner.acc, last - first)
 
     def _true_flex(self, k0: int, k1: int) -> Array:
         """The true elbow angles of samples k0 to k1 - 1, in degrees."""

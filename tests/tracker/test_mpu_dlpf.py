@@ -1,7 +1,8 @@
 """The MPU-9250's low-pass filters in the simulator: the setting the firmware picks, and its delays.
 
-Each against a case worked by hand: a signal that is a cubic in time is delayed
-exactly; a sine's reading lags by the register map's delay, 2 pi f d of phase;
+Each against a case worked by hand or an oracle: every setting's response is late
+by the register map's delay; its gain and phase are scipy's first-order low-pass
+and a dead time; a vibration near the sample rate arrives as attenuated as that;
 the simulated board's gyroscope and accelerometer read the truth that many
 milliseconds ago (the simulator's own truth at the earlier time as the oracle),
 while the truth it reports stays the present one.
@@ -12,7 +13,10 @@ import math
 import numpy as np
 import pytest
 
-from tracker.mpu_dlpf import Dlpf, FractionalDelay, dlpf_for_rate
+from scipy import signal
+
+from tracker.mpu_dlpf import (ACCEL_BANDWIDTH_HZ, ACCEL_DELAY_MS, GYRO_BANDWIDTH_HZ, GYRO_DELAY_MS, INTERNAL_HZ,
+                             Dlpf, Response, dlpf_for_rate)
 from tracker.sim import Motion, SensorErrors, Simulator, arm_chain, arm_swing, realistic_errors
 
 
@@ -31,36 +35,62 @@ def test_the_games_rate_reads_the_gyroscope_5_9_ms_and_the_accelerometer_4_88_ms
     assert d.gyro_delay_s == pytest.approx(0.0059) and d.accel_delay_s == pytest.approx(0.00488)
 
 
-@pytest.mark.parametrize("delay_s, rate", [(0.0059, 200.0), (0.00488, 200.0), (0.00097, 1000.0),
-                                           (0.03348, 10.0), (0.0, 200.0), (0.01, 100.0)])
-def test_a_cubic_in_time_is_delayed_exactly(delay_s, rate):
-    f = FractionalDelay.of(delay_s, rate)
-    t = np.arange(-f.reach, 400) / rate
-    cubic = lambda t: 0.3 - 2.0 * t + 1.5 * t ** 2 - 0.7 * t ** 3  # noqa: E731
-    assert np.allclose(f.apply(cubic(t)), cubic(t[f.reach:] - delay_s), rtol=0, atol=1e-9)
-    assert max(f.offsets) <= 0 and sum(f.weights) == pytest.approx(1.0)  # nothing read ahead
+SETTINGS = [(GYRO_BANDWIDTH_HZ[c], GYRO_DELAY_MS[c]) for c in range(7)] + [
+    (ACCEL_BANDWIDTH_HZ[c], ACCEL_DELAY_MS[c]) for c in range(7)]
 
 
-@pytest.mark.parametrize("freq", [1.0, 10.0, 25.0])
-def test_a_sine_lags_by_the_delay_within_the_interpolations_bound(freq):
-    rate, delay = 200.0, 0.0059
-    f = FractionalDelay.of(delay, rate)
-    t = np.arange(-f.reach, 2000) / rate
-    got = f.apply(np.sin(2 * math.pi * freq * t))
-    want = np.sin(2 * math.pi * freq * (t[f.reach:] - delay))
-    bound = (2 * math.pi * freq / rate) ** 4 / 24  # FractionalDelay's docstring
-    assert np.max(np.abs(got - want)) <= bound
-    # Its phase against the undelayed sine, by least squares: 2 pi f d (a tenth of a degree at 25 Hz).
-    s, c = np.sin(2 * math.pi * freq * t[f.reach:]), np.cos(2 * math.pi * freq * t[f.reach:])
-    a, b = np.linalg.lstsq(np.column_stack([s, c]), got, rcond=None)[0]
-    assert math.atan2(-b, a) == pytest.approx(2 * math.pi * freq * delay, abs=math.radians(0.2))
+@pytest.mark.parametrize("bandwidth, delay_ms", SETTINGS)
+def test_every_setting_reads_late_by_the_register_maps_delay(bandwidth, delay_ms):
+    r = Response(bandwidth, delay_ms / 1000.0)
+    w = r.weights()
+    # A first-order low-pass delays slow signals by its time constant 1 / (2 pi f); the rest is dead time.
+    assert r.time_constant_s == pytest.approx(1.0 / (2.0 * math.pi * bandwidth))
+    assert 0.0 <= r.dead_time_s < 2.2e-3  # the rest is a conversion latency of 0.3-2.2 ms at every setting
+    assert w.sum() == pytest.approx(1.0, abs=1e-12) and np.all(w >= 0.0)
+    # The response's first moment, the delay of a slow signal, is the register map's (within 0.01 %: the
+    # tail left out, e^-12 of the response, TAIL).
+    assert np.sum(w * np.arange(len(w))) / INTERNAL_HZ == pytest.approx(delay_ms / 1000.0, rel=1e-4)
+    # Nothing read ahead: a ramp reads as the ramp that many ms ago.
+    t = np.arange(2000) / INTERNAL_HZ
+    last = np.arange(r.taps, 2000)
+    assert np.allclose(r.read(0.3 + 2.0 * t, last), 0.3 + 2.0 * (t[last] - delay_ms / 1000.0), rtol=0,
+                       atol=2.0 * 1e-4 * delay_ms / 1000.0)
 
 
-def test_a_bad_delay_is_a_clear_error():
-    with pytest.raises(ValueError, match="delay >= 0"):
-        FractionalDelay.of(-0.001, 200.0)
-    with pytest.raises(ValueError, match="rate > 0"):
-        FractionalDelay.of(0.005, 0.0)
+@pytest.mark.parametrize("freq", [1.0, 10.0, 25.0, 41.0, 100.0])
+def test_the_gain_and_phase_are_a_first_order_low_pass_and_a_dead_time(freq):
+    # The oracle: scipy's response of 1 / (1 + s T), times exp(-i 2 pi f D), times sinc^2 (f h) for the
+    # straight lines joining the internal samples (the Fourier transform of the hat function).
+    r = Dlpf.for_rate(200.0).gyro
+    w = r.weights()
+    got = np.sum(w * np.exp(-2j * math.pi * freq * np.arange(len(w)) / INTERNAL_HZ))
+    _, h = signal.freqs([1.0], [r.time_constant_s, 1.0], worN=[2 * math.pi * freq])
+    want = h[0] * np.exp(-2j * math.pi * freq * r.dead_time_s) * np.sinc(freq / INTERNAL_HZ) ** 2
+    assert abs(got) == pytest.approx(abs(want), rel=2e-3)
+    assert np.angle(got / want) == pytest.approx(0.0, abs=math.radians(0.2))
+    if freq == 41.0:
+        assert abs(got) == pytest.approx(1.0 / math.sqrt(2.0), rel=0.01)  # 3 dB down at the bandwidth
+
+
+def test_a_vibration_near_the_sample_rate_reaches_the_samples_as_the_low_pass_lets_it():
+    # A 195 Hz vibration read at 200 Hz aliases to 5 Hz. Read at the samples' instants it would arrive
+    # whole; through the chip's 41 Hz low-pass it is 1 / sqrt(1 + (195 / 41)^2) = 0.206 of itself, and
+    # the straight lines between the internal samples take sinc^2(0.195) = 0.885 of that: 0.182.
+    r = Dlpf.for_rate(200.0).gyro
+    t = np.arange(20000) / INTERNAL_HZ
+    last = np.arange(r.taps, 20000, 5)  # every fifth internal sample: 200 Hz
+    got = r.read(np.sin(2 * math.pi * 195.0 * t), last)
+    ts = t[last]
+    a, b = np.linalg.lstsq(np.column_stack([np.sin(2 * math.pi * 5.0 * ts), np.cos(2 * math.pi * 5.0 * ts)]),
+                           got, rcond=None)[0]
+    assert math.hypot(a, b) == pytest.approx(0.182, abs=0.003)
+
+
+def test_a_response_that_cannot_be_is_a_clear_error():
+    with pytest.raises(ValueError, match="bandwidth > 0"):
+        Response(0.0, 0.005)
+    with pytest.raises(ValueError, match="delay >= 1 / \\(2 pi bandwidth\\)"):
+        Response(41.0, 0.001)  # a 41 Hz low-pass alone delays 3.9 ms
 
 
 def test_the_simulated_board_reads_its_imu_late_and_reports_the_present_truth():
