@@ -62,7 +62,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import quat
 from .flex import FlexCircuit, FlexSensor
-from .mpu_dlpf import INTERNAL_HZ, Dlpf
+from .mpu_dlpf import INTERNAL_HZ, Dlpf, Response
 from .motion import EARTH_FIELD_UT, GRAVITY, SensorReading
 from .protocol import MAG_UT_PER_COUNT, STANDARD_GRAVITY
 
@@ -840,6 +840,9 @@ class Simulator:
         return self.stream(rate_hz).block(0, round(duration_s * rate_hz))
 
 
+FILTERED_CHUNK = 2048  # samples read through the low-pass filters at a time: their 1 kHz truth in memory
+
+
 class SampleStream:
     """A simulator sampled at ``rate_hz``: sample k is at t = k / rate.
 
@@ -871,12 +874,19 @@ class SampleStream:
         truth = self.sim.truth(np.arange(k0, k1) / self.rate_hz)
         if self._filters is None or k1 <= k0:
             return truth, truth.gyr, truth.acc
-        gyr_filter, acc_filter = self._filters
+        filters = self._filters
+        read = [self._filtered(filters, a, min(a + FILTERED_CHUNK, k1)) for a in range(k0, k1, FILTERED_CHUNK)]
+        return truth, np.concatenate([g for g, _ in read]), np.concatenate([a for _, a in read])
+
+    def _filtered(self, filters: tuple[Response, Response], k0: int, k1: int) -> tuple[Array, Array]:
+        """The rates and specific forces of samples k0 to k1 - 1 (k1 > k0) read through ``filters``
+        (the gyroscope's, the accelerometer's)."""
+        gyr_filter, acc_filter = filters
         # The internal sample each reading is made at: the last at or before its instant.
         last = np.floor(np.arange(k0, k1) * (INTERNAL_HZ / self.rate_hz) + 1e-9).astype(np.int64)
         first = int(last[0]) - max(gyr_filter.taps, acc_filter.taps) + 1
         inner = self.sim.truth(np.maximum(np.arange(first, int(last[-1]) + 1), 0) / INTERNAL_HZ)
-        return truth, gyr_filter.read(inner.gyr, last - first), acc_filter.read(inner.acc, last - first)
+        return gyr_filter.read(inner.gyr, last - first), acc_filter.read(inner.acc, last - first)
 
     def _true_flex(self, k0: int, k1: int) -> Array:
         """The true elbow angles of samples k0 to k1 - 1, in degrees."""
