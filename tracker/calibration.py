@@ -386,7 +386,7 @@ def _hold_noise(kernel: Array, n: int, dt: float) -> tuple[_RowNoise, _RowNoise]
 
     The low-pass K (n rows of n + m - 1 samples; row i the reversed kernel from sample
     i, :func:`_smooth`) has K^T y = y convolved with the reversed kernel and ||K||_F^2 =
-    n sum k^2. The horizontal rows are K on each accelerometer axis, then two noiseless
+    n sum k^2. The horizontal rows are K on each accelerometer axis, then the noiseless
     prior rows. The vertical rows are K applied to the integrated gyroscope, A = K L
     with L w = dt cumsum(w): A^T y = dt (reversed cumulative sum of K^T y); row i of A
     is dt for the i + 1 samples up to i, then dt C[m - 2], ..., dt C[0] (C the
@@ -416,6 +416,24 @@ def _lever_columns(gyr: Array, dw: Array, kernel: Array, basis: Array) -> Array:
     return np.stack(cols, axis=2)
 
 
+def _roll_columns(gyr: Array, kernel: Array, basis: Array) -> Array:
+    """(n, 3): the low-passed products w_up w_e1, w_up w_e2 and w_up^2 (rad^2/s^2, over g) of
+    the rate about the vertical with each axis: what the board's roll on the soft tissue adds.
+
+    A strap rocks the board about the arm's axis (Wakeling & Nigg 2001, J. Biomech. 34:
+    soft-tissue vibrations, a damped oscillator the bone's tremor drives), the vertical while
+    the arm hangs. The gyroscope reads that roll with the bone's swing, but the roll turns
+    the board about the arm's axis, not about the shoulder, so the rigid lever terms of
+    :func:`_lever_columns` computed with the whole rate are off by the roll rate times the
+    swing rate and the roll rate squared, each times a length of the board's offset from the
+    arm's axis (w x (w x r) expanded in w = w_bone + w_roll, Seel et al. 2014, eq. 5). Tremor
+    near the strap's resonance rolls it by degrees at 10 Hz; its beating rectifies those
+    products into a slow specific force that no tilt explains."""
+    up = gyr @ basis[2]
+    products = np.stack([up * (gyr @ basis[0]), up * (gyr @ basis[1]), up * up], axis=1)
+    return _smooth(products, kernel) / GRAVITY
+
+
 def fit_hold(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
              params: StartupParams | None = None) -> HoldFit:
     """The gyroscope bias of a hold and how the arm moved during it (arrays as :func:`startup_bias`).
@@ -433,7 +451,8 @@ def fit_hold(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
     measurement for gait analysis", Sensors 14 (2014) 6891-6909, sec. 3.1, eq. 5,
     where it locates joints): r is fitted with db, so tremor of several g at the
     elbow is explained (r's horizontal part, the board's offset from the arm's axis,
-    held near zero by a prior of ARM_RADIUS_M). About the vertical, which the
+    held near zero by a prior of ARM_RADIUS_M), and so is what the strap's roll about the
+    arm's axis adds (:func:`_roll_columns`, lengths of the same size). About the vertical, which the
     accelerometer cannot see, the bias is the slope of the integrated rotation.
 
     Both sides are low-passed alike first (VQF judges rest on low-passed signals,
@@ -454,11 +473,15 @@ def fit_hold(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
     n = len(tau)
     noise_h, noise_v = _hold_noise(kernel, n, dt)  # what white sensor noise does to the rows
     lever = _lever_columns(g, _smooth(g, dkernel), kernel, basis)
-    # unknowns: db_e1, db_e2, const_e1, const_e2, the lever arm r_e1, r_e2, r_up; two prior rows
-    x_h = np.zeros((2 * n + 2, 7))
+    roll = _roll_columns(g, kernel, basis)
+    # unknowns: db_e1, db_e2, const_e1, const_e2, the lever arm r_e1, r_e2, r_up, then the roll's
+    # three lengths on e1's rows and on e2's; a prior row (~0, ARM_RADIUS_M) for r_e and each length
+    x_h = np.zeros((2 * n + 8, 13))
     x_h[n:2 * n, 0], x_h[:n, 1], x_h[:n, 2], x_h[n:2 * n, 3] = -tau, tau, 1.0, 1.0
-    x_h[:n, 4:], x_h[n:2 * n, 4:] = lever[:, 0, :], lever[:, 1, :]
-    x_h[2 * n, 4] = x_h[2 * n + 1, 5] = math.sqrt(n) * FIT_NOISE / ARM_RADIUS_M  # a prior: r_e ~ 0
+    x_h[:n, 4:7], x_h[n:2 * n, 4:7] = lever[:, 0, :], lever[:, 1, :]
+    x_h[:n, 7:10], x_h[n:2 * n, 10:13] = roll, roll
+    priors = [4, 5, *range(7, 13)]
+    x_h[2 * n + np.arange(len(priors)), priors] = math.sqrt(n) * FIT_NOISE / ARM_RADIUS_M
     x_v = np.stack([tau, np.ones(n)], axis=1)
     g_h, g_v = (np.linalg.pinv(x).astype(np.float64) for x in (x_h, x_v))  # the same in both passes
     bias = np.zeros(3)
@@ -469,7 +492,7 @@ def fit_hold(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
         start = np.sum(quat.rotate(q[centre:centre + n], a_lp), axis=0)  # taken back to the start
         v = _smooth(quat.rotate(quat.conjugate(q), start / np.linalg.norm(start)), kernel)
         d = (a_lp / GRAVITY - v) @ basis[:2].T
-        s_h, e_h = _solve(x_h, g_h, np.concatenate([d[:, 0], d[:, 1], [0.0, 0.0]]))
+        s_h, e_h = _solve(x_h, g_h, np.concatenate([d[:, 0], d[:, 1], np.zeros(len(priors))]))
         s_v, e_v = _solve(x_v, g_v, _smooth(quat.to_rotvec(q), kernel) @ basis[2])
         step = s_h[0] * basis[0] + s_h[1] * basis[1] + s_v[0] * basis[2]
         bias = bias + step
