@@ -476,11 +476,11 @@ def fit_hold(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
     roll = _roll_columns(g, kernel, basis)
     # unknowns: db_e1, db_e2, const_e1, const_e2, the lever arm r_e1, r_e2, r_up, then the roll's
     # three lengths on e1's rows and on e2's; a prior row (~0, ARM_RADIUS_M) for r_e and each length
-    x_h = np.zeros((2 * n + 8, 13))
+    priors = [4, 5, *range(7, 13)]
+    x_h = np.zeros((2 * n + len(priors), 13))
     x_h[n:2 * n, 0], x_h[:n, 1], x_h[:n, 2], x_h[n:2 * n, 3] = -tau, tau, 1.0, 1.0
     x_h[:n, 4:7], x_h[n:2 * n, 4:7] = lever[:, 0, :], lever[:, 1, :]
     x_h[:n, 7:10], x_h[n:2 * n, 10:13] = roll, roll
-    priors = [4, 5, *range(7, 13)]
     x_h[2 * n + np.arange(len(priors)), priors] = math.sqrt(n) * FIT_NOISE / ARM_RADIUS_M
     x_v = np.stack([tau, np.ones(n)], axis=1)
     g_h, g_v = (np.linalg.pinv(x).astype(np.float64) for x in (x_h, x_v))  # the same in both passes
