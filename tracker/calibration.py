@@ -264,12 +264,26 @@ class StartupParams:
     smoothing: float = 3.0 / TREMOR_MIN_HZ
 
 
+LONGER_HOLD = StartupParams(duration=5.0, max_rate=0.75 * DEG, smoothing=2.0)
+"""The judgement of a hold twice as long, for an arm whose tremor a 2 s hold cannot tell from a move.
+
+A tremor at the slowest 3 Hz spreads over 2-4 Hz (its components beat; the simulated player's
+TREMOR_SPREAD_HZ), and the default 1 s low-pass, whose first zero is at 3 Hz, lets the 2 Hz part
+through as an unexplained turn: 1 hold in 20 of the worst plausible player with a 3 Hz tremor was
+refused at 1.3 deg/s. A 2 s low-pass (first zero at 1.5 Hz) stops it (at most 0.28 deg/s over 20
+such 5 s holds) but lets more of a slow real move through, so its bound is lower: measured on the
+real arm recording like ``max_rate`` (``tests/tracker/test_stillness_real.py``, every 5 s window),
+still windows leave at most 0.64 deg/s and the movements at least 0.88; 0.75 lies between."""
+
+
 @dataclass(frozen=True, eq=False)
 class BiasResult:
     """The outcome of a start-up bias estimate; ``message`` says what happened, for the user.
 
     ``bias`` and ``std_error`` (its standard error, :class:`HoldFit`) are rad/s per
-    axis, zeros when ``ok`` is false; ``duration`` is the seconds used.
+    axis, zeros when ``ok`` is false; ``duration`` is the seconds used. ``hold_longer``:
+    refused only for a turn its tilt does not explain, judged with a low-pass shorter than
+    :data:`LONGER_HOLD`'s: a slow tremor does that too, so hold on and judge the longer hold.
     """
 
     ok: bool
@@ -277,6 +291,7 @@ class BiasResult:
     bias: Array
     std_error: Array
     duration: float
+    hold_longer: bool = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -566,7 +581,9 @@ def startup_bias(t: ArrayLike, gyr: ArrayLike, acc: ArrayLike,
                        f"{p.max_bias / DEG:g} deg/s a resting MPU-9250 can show: the board was "
                        f"turning slowly, or its gyroscope is faulty; hold it still and try again")
     if problem or fit is None:
-        return BiasResult(False, problem or "", np.zeros(3), np.zeros(3), _covered(tt))
+        longer = (fit is not None and fit.tilt <= p.max_tilt and fit.rate > p.max_rate
+                  and p.smoothing < LONGER_HOLD.smoothing)
+        return BiasResult(False, problem or "", np.zeros(3), np.zeros(3), _covered(tt), longer)
     return BiasResult(True, f"gyroscope bias {_deg(fit.bias)} (+-{np.max(fit.std_error) / DEG:.2f}) "
                       f"from {_covered(tt):.1f} s still", fit.bias, fit.std_error, _covered(tt))
 

@@ -24,7 +24,7 @@ from typing import Sequence
 import numpy as np
 
 from tracker import protocol as P
-from tracker.calibration import BiasResult, BoardCalibration, startup_bias
+from tracker.calibration import BiasResult, BoardCalibration, StartupParams, startup_bias
 from tracker.flex import FlexCalibration, FlexTracker
 from tracker.fusion.base import Filter
 from tracker.fusion.default import DefaultFilter, for_mpu9250
@@ -104,8 +104,10 @@ class Tracking:
         self._last_t = t
         return self._dt
 
-    def hold_still(self, samples: Sequence[P.RawSample]) -> tuple[BiasResult, list[ArmPose]]:
-        """"Hold still": the gyro bias over these samples, and the hold's poses redone with it.
+    def hold_still(self, samples: Sequence[P.RawSample],
+                   params: StartupParams | None = None) -> tuple[BiasResult, list[ArmPose]]:
+        """"Hold still": the gyro bias over these samples (judged with ``params``, the default
+        hold's when None), and the hold's poses redone with it.
 
         The bias goes to the filter if the samples were still. Either way the
         samples are run again from a fresh filter state (keeping the best bias
@@ -121,7 +123,7 @@ class Tracking:
         known = all(s.temp_counts is not None for s in raw)
         die = np.array([s.die_c for s in raw], dtype=float) if known else None
         calibrated = self.board.apply_arrays(acc, [s.gyr for s in raw], None, die)
-        result = startup_bias(t, calibrated.gyr, calibrated.acc)  # both in the calibrated frame
+        result = startup_bias(t, calibrated.gyr, calibrated.acc, params)  # both in the calibrated frame
         if isinstance(self.filter, DefaultFilter):  # the filter that estimates the bias keeps the best known
             bias = as_vec(result.bias) if result.ok else self.filter.get_state().bias
             self.reset()

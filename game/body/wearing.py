@@ -24,7 +24,7 @@ from typing import Sequence
 import numpy as np
 
 from tracker import quat as Q
-from tracker.calibration import TREMOR_MIN_HZ, StartupParams
+from tracker.calibration import LONGER_HOLD, TREMOR_MIN_HZ, StartupParams
 
 from .avatar import Avatar, Wearing
 from .pose import ArmPose, Quat
@@ -32,6 +32,8 @@ from .pose import ArmPose, Quat
 MOVE_DEG = math.degrees(StartupParams().max_tilt)  # a pose may drift this far (deg) from its start
 # to its end: a postural sway of up to 4 deg peak swings the arm up to 8 deg (the start-up hold's bound)
 FORWARD_RANGE_DEG = (60.0, 120.0)  # how far "arm straight forward" may be from "arm down"
+HOLD_S = {"down": 2.5, "longer": LONGER_HOLD.duration - 2.5, "forward": 2.0}  # each step's hold (s);
+# "longer" goes on from "down" when the hold's judgement asks for it (tracker.calibration.LONGER_HOLD)
 
 
 @dataclass(frozen=True)

@@ -33,7 +33,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from tracker import protocol as P
-from tracker.calibration import BoardCalibration
+from tracker.calibration import LONGER_HOLD, BoardCalibration, StartupParams
 from tracker.maker_sim import SimulatedMaker, calibrate
 from tracker.sim_board import RATE_HZ, SimBoard
 
@@ -41,7 +41,7 @@ from ..body.avatar import Avatar, BodySettings
 from ..body.gestures import GestureEvent, GestureMachine
 from ..body.pose import ArmPose
 from ..body.tracking import Tracking
-from ..body.wearing import arm_down_then_forward
+from ..body.wearing import HOLD_S, arm_down_then_forward
 from .motion_model import PlayerProfile, Session, TrueLaunch, session
 
 MATCH_BEFORE_S = 0.05
@@ -124,6 +124,24 @@ def _within(t: float, interval: tuple[float, float], last_s: float | None = None
     return (t1 - last_s if last_s else t0) <= t < t1
 
 
+def _held(samples: Sequence[P.RawSample], down: tuple[float, float], last_s: float | None = None) -> list[P.RawSample]:
+    """The samples of the arm-down hold (its last ``last_s`` seconds)."""
+    return [s for s in samples if _within(s.t, down, last_s)]
+
+
+def _played(profile: PlayerProfile, seed: int, gestures: int,
+            board: BoardCalibration) -> tuple[Session, list[P.RawSample], StartupParams | None]:
+    """The session, its samples and how its hold is judged: the game's "hold still" first, and
+    if that asks for a longer hold (a slow tremor, :data:`tracker.calibration.LONGER_HOLD`),
+    the same player holding on as the game asks (``HOLD_S["longer"]``), judged over the longer hold."""
+    script = session(profile, seed, gestures=gestures)
+    samples = board_stream(script, profile, seed)
+    if not Tracking(board=board).hold_still(_held(samples, script.calibration[0]))[0].hold_longer:
+        return script, samples, None
+    script = session(profile, seed, gestures=gestures, hold_on_s=HOLD_S["longer"])
+    return script, board_stream(script, profile, seed), LONGER_HOLD
+
+
 def run_trial(profile: PlayerProfile, seed: int, gestures: int = 10, magnetometer: bool = True) -> TrialResult:
     """One scripted session through the whole pipeline (``magnetometer`` False: 6D fusion).
 
@@ -131,15 +149,14 @@ def run_trial(profile: PlayerProfile, seed: int, gestures: int = 10, magnetomete
     a failure is recorded (``calibration_ok`` false, the reason in
     ``calibration``) and play goes on with what the pipeline has.
     """
-    script = session(profile, seed, gestures=gestures)
-    samples = board_stream(script, profile, seed)
-    down, forward = script.calibration
     board, maker_problem = maker_calibration(profile, seed)
+    script, samples, hold_params = _played(profile, seed, gestures, board)
+    down, forward = script.calibration
+    still = _held(samples, down, hold_params.duration if hold_params else None)
     tracking = Tracking(use_magnetometer=magnetometer, board=board)
     avatar = Avatar(BodySettings(upper_arm_m=profile.upper_arm_m, forearm_m=profile.forearm_m))
     machine = GestureMachine()
     result = TrialResult(true_launches=len(script.launches))
-    still: list[P.RawSample] = []
     down_poses: list[ArmPose] = []
     forward_poses: list[ArmPose] = []
     launches = []
@@ -147,12 +164,10 @@ def run_trial(profile: PlayerProfile, seed: int, gestures: int = 10, magnetomete
     for s in samples:
         if not calibrated and s.t >= down[1] and not down_poses:
             # "Hold still" ended: learn the bias, then redo the hold with it.
-            bias, redone = tracking.hold_still(still)
+            bias, redone = tracking.hold_still(still, hold_params)
             down_poses = [p for p, x in zip(redone, still) if _within(x.t, down, POSE_WINDOW_S)]
         pose = tracking.feed(s)
         if not calibrated:
-            if _within(s.t, down):
-                still.append(s)
             if _within(s.t, forward, POSE_WINDOW_S):
                 forward_poses.append(pose)
             if s.t >= forward[1]:

@@ -787,14 +787,16 @@ class Script:
 
     # -------------------------------------------------------- segments
 
-    def calibration(self) -> tuple[Interval, Interval]:
+    def calibration(self, hold_on_s: float = 0.0) -> tuple[Interval, Interval]:
         """The wearing calibration: hang still, raise the straight arm forward to level, hold, lower.
 
         The holds are as long as the game asks for (the player's speed does
         not shorten them); only the movements between them scale with speed.
+        ``hold_on_s``: how much longer the arm hangs still when the game asks
+        for a longer hold (game.body.wearing.HOLD_S["longer"]).
         """
         rng, t0 = self.rng(), self.now
-        down = (t0, t0 + float(rng.uniform(2.4, 2.7)))
+        down = (t0, t0 + float(rng.uniform(2.4, 2.7)) + hold_on_s)
         t = self._move(down[1], self._dur(rng, 0.9, 1.3), el=90.0)
         forward = (t, t + float(rng.uniform(1.9, 2.2)))
         t = self._move(forward[1], self._dur(rng, 0.9, 1.3), el=0.0)
@@ -1040,11 +1042,13 @@ class Script:
 
 
 def session(profile: PlayerProfile = PlayerProfile(), seed: int = 0, gestures: int = 5,
-            idle_s: float | tuple[float, float] = (4.0, 10.0), calibration: bool = True) -> Session:
+            idle_s: float | tuple[float, float] = (4.0, 10.0), calibration: bool = True,
+            hold_on_s: float = 0.0) -> Session:
     """Calibration, then idle and gesture in turn (``gestures`` of them), ending idle.
 
     ``idle_s``: each idle stretch's length, or a (low, high) range to draw it
-    from; 0 leaves the idle stretches out.
+    from; 0 leaves the idle stretches out. ``hold_on_s``: the calibration's
+    arm-down hold that much longer (:meth:`Script.calibration`).
     """
     if isinstance(idle_s, (int, float)):
         low, high = float(idle_s), float(idle_s)
@@ -1057,7 +1061,7 @@ def session(profile: PlayerProfile = PlayerProfile(), seed: int = 0, gestures: i
     script = Script(profile, seed)
     lengths = script.rng().uniform(low, high, gestures + 1)
     if calibration:
-        script.calibration()
+        script.calibration(hold_on_s)
     for k in range(gestures + 1):
         if lengths[k] > 0:
             script.idle(float(lengths[k]))

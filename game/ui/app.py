@@ -23,7 +23,7 @@ import pygame
 
 from tracker import protocol as P
 from tracker.accel_procedure import FACES, TILTED
-from tracker.calibration import BoardCalibration, board_id_of, load_for_hello
+from tracker.calibration import LONGER_HOLD, BoardCalibration, board_id_of, load_for_hello
 from tracker.link import LinkSettings, find_boards
 from tracker.maker_sim import SimulatedMaker, cold
 
@@ -31,7 +31,7 @@ from ..body.avatar import Avatar, BodySettings, Wearing
 from ..body.controls import KeyboardMouse, SampleInput, SourceState, TrackerInput
 from ..body.gestures import GestureEvent, GestureMachine, GestureSettings
 from ..body.pose import ArmPose
-from ..body.wearing import arm_down, arm_down_then_forward, recenter
+from ..body.wearing import HOLD_S, arm_down, arm_down_then_forward, recenter
 from ..world.arena import Arena, ArenaSettings
 from ..world.arena_model import Controls
 from ..replay.log import SessionLog, SessionRecorder
@@ -48,7 +48,6 @@ if TYPE_CHECKING:  # the virtual board is imported only when one is used
     from tracker.motion import MotionSource
 
 WINDOW = (1280, 720)
-HOLD_S = {"down": 2.5, "forward": 2.0}
 GET_READY_S = 2.0
 VIRTUAL_CALIBRATED = ("the virtual player wears its board as designed and does not follow prompts: "
                       "it needs no wearing calibration (Play starts at once)")
@@ -331,9 +330,9 @@ class Calibration:
 
     game: Game
     then_play: bool
-    step: str = "down"  # "down", "forward", "done", "failed"
+    step: str = "down"  # "down", "longer" (a slow tremor's longer hold), "forward", "done", "failed"
     clock: float = -GET_READY_S  # negative: getting ready
-    poses: dict[str, list[ArmPose]] = field(default_factory=lambda: {"down": [], "forward": []})
+    poses: dict[str, list[ArmPose]] = field(default_factory=lambda: {step: [] for step in HOLD_S})
     message: str = ""
     bias_learned: bool = True  # the hold gave the gyroscope's bias (else the filter learns it in play)
 
@@ -341,6 +340,8 @@ class Calibration:
         keyboard = self.game.tracker is None
         if self.step == "down":
             return "Hold your arm straight down, still" + (" (keyboard: leave R up)" if keyboard else "")
+        if self.step == "longer":
+            return "Keep it down and still a little longer (your arm trembles slowly)"
         if self.step == "forward":
             return "Raise your arm straight forward to shoulder height" + (" (keyboard: hold R)" if keyboard else "")
         return self.message
@@ -377,12 +378,17 @@ class Calibration:
 
     def complete_step(self) -> None:
         game = self.game
-        if self.step == "down":
+        if self.step in ("down", "longer"):
             bias = None
             if game.tracker and game.tracker.recent:
+                longer = self.step == "longer"  # judged over the whole hold, with its longer low-pass
                 newest = game.tracker.recent[-1].t
-                hold = [s for s in game.tracker.recent if s.t >= newest - HOLD_S["down"]]
-                bias, self.poses["down"] = game.tracker.tracking.hold_still(hold)
+                span = LONGER_HOLD.duration if longer else HOLD_S["down"]
+                hold = [s for s in game.tracker.recent if s.t >= newest - span]
+                bias, self.poses["down"] = game.tracker.tracking.hold_still(hold, LONGER_HOLD if longer else None)
+                if bias.hold_longer:  # what looked like a turn may be a slow tremor: hold on
+                    self.step, self.clock = "longer", 0.0
+                    return None
                 # A hold too shaky for the bias is no reason to lock the player out: the filter
                 # learns the bias in play. The pose decides (arm_down says if the arm moved).
                 self.bias_learned = bias.ok

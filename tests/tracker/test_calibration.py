@@ -303,6 +303,7 @@ def test_a_slow_10_deg_raise_is_refused_and_named(seconds, start):
     t, gyr, acc = arm_hold(together(raise_arm(10, start, seconds), swing(1, 5, 0, Y)), 2.5)
     result = C.startup_bias(t, gyr, acc)
     assert not result.ok and result.message.startswith("the board moved during start-up: the arm tilted")
+    assert not result.hold_longer  # a tilt is no tremor: no longer hold tells it apart
     tilted = float(result.message.split("tilted ")[1].split(" degrees")[0])
     assert 9.0 <= tilted <= 10.5  # the low-passed ends see nearly all of the raise
 
@@ -376,6 +377,31 @@ def test_a_board_rocking_about_the_vertical_in_the_tremor_band_is_still():
     result = C.startup_bias(t, gyr, acc)
     assert result.ok, result.message
     assert np.all(np.abs(result.bias - HOLD_BIAS) < 4 * result.std_error + 0.05 * DEG)
+
+
+def test_a_slow_rocking_asks_for_the_longer_hold_which_tells_it_from_a_turn():
+    """A board rocking 2 deg about the vertical at 2 Hz: the lowest part of the slowest tremor (3 Hz,
+    whose beating components spread it by 1 Hz). The hold's 1 s low-pass passes it with the gain
+    blackman_gain(2) = 0.04 / 0.42 (only the window's outer terms reach 2 bins), so 2 pi f A times
+    that, 2.4 deg/s, looks like a turn: refused, and the result asks for the longer hold. The
+    longer hold's 2 s low-pass has a zero there (4 bins): over 5 s the same rocking is still and
+    its bias a still board's. A 10 deg turn about the vertical inside those 5 s is still refused,
+    and a hold judged with the longer low-pass asks for no longer one."""
+    left = 2 * np.pi * 2.0 * 2.0 * blackman_gain(2.0 * SMOOTH)
+    assert left == pytest.approx(2 * np.pi * 4.0 * 0.04 / 0.42) and left > C.StartupParams().max_rate / DEG
+    assert blackman_gain(2.0 * C.LONGER_HOLD.smoothing) < 1e-12
+    rocking = swing(2, 2.0, 0.7, Z)
+    t, gyr, acc = arm_hold(rocking, 2.5, seed=12)
+    short = C.startup_bias(t, gyr, acc)
+    assert not short.ok and "turned about the vertical" in short.message and short.hold_longer
+    t, gyr, acc = arm_hold(rocking, C.LONGER_HOLD.duration, seed=12)
+    longer = C.startup_bias(t, gyr, acc, C.LONGER_HOLD)
+    assert longer.ok, longer.message
+    assert np.all(np.abs(longer.bias - HOLD_BIAS) < 4 * longer.std_error + 0.05 * DEG)
+    turned = together(rocking, lambda x: raise_arm(10, 1.5, 2.0)(x)[:, [1, 2, 0]])  # about world z
+    t, gyr, acc = arm_hold(turned, C.LONGER_HOLD.duration, seed=12)
+    moved = C.startup_bias(t, gyr, acc, C.LONGER_HOLD)
+    assert not moved.ok and "turned about the vertical" in moved.message and not moved.hold_longer
 
 
 # ----------------------------------------------------------------- continuous bias

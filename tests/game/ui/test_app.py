@@ -179,7 +179,9 @@ def test_calibrating_a_board_that_keeps_moving_fails_with_the_reason(app):
         app.game.use_board(board.port)
         assert app.game.tracker.opened.wait(5.0)
         app.screen = Calibration(app.game, then_play=False)
-        for _ in range(int(6.0 / DT)):  # in real time: the hold is timed in the board's samples too
+        # in real time (the hold is timed in the board's samples too): get ready, the hold and, when what
+        # moved might be a slow tremor, the longer hold
+        for _ in range(int(9.0 / DT)):
             app.frame([], DT)
             time.sleep(DT)
             if app.screen.step == "failed":
@@ -239,7 +241,7 @@ class _ShakyHoldTracker:
         self.recent = [P.RawSample(0.0, 0, 0, (0, 0, 2048), (0, 0, 0), None, 390, 16, 2000)]
         refused = BiasResult(False, "the arm turned about the vertical", np.zeros(3), np.zeros(3), 2.0)
         self.anchored = 0  # wearings put on (each keeps its "forward" as the field settles)
-        self.tracking = SimpleNamespace(hold_still=lambda hold: (refused, [hanging] * 50),
+        self.tracking = SimpleNamespace(hold_still=lambda hold, params=None: (refused, [hanging] * 50),
                                         anchor_heading=lambda: setattr(self, "anchored", self.anchored + 1))
         self.forward = False
         self._hanging = hanging
@@ -260,6 +262,47 @@ class _ShakyHoldTracker:
 
     def close(self):
         pass
+
+
+class _SlowTremorTracker(_ShakyHoldTracker):
+    """A board whose first hold looks like a turn (a slow tremor) and whose longer hold is still."""
+
+    def __init__(self):
+        import numpy as np
+
+        from tracker import protocol as P
+        from tracker.calibration import BiasResult
+
+        super().__init__()
+        self.recent = [P.RawSample(i * 0.01, 0, i, (0, 0, 2048), (0, 0, 0), None, 390, 16, 2000) for i in range(600)]
+        self.holds = []  # (seconds the hold spans, the judgement's settings)
+        asks = BiasResult(False, "the arm turned about the vertical", np.zeros(3), np.zeros(3), 2.5, True)
+        still = BiasResult(True, "gyroscope bias", np.ones(3) * 0.01, np.ones(3) * 0.001, 5.0)
+
+        def hold_still(hold, params=None):
+            self.holds.append((hold[-1].t - hold[0].t, params))
+            return (asks if params is None else still), [self._hanging] * 50
+
+        self.tracking.hold_still = hold_still
+
+
+def test_a_hold_that_may_be_a_slow_tremor_goes_on_and_the_longer_hold_is_judged(app):
+    from tracker.calibration import LONGER_HOLD
+
+    tracker = _SlowTremorTracker()
+    app.game.tracker = tracker
+    screen = Calibration(app.game, then_play=False)
+    app.screen = screen
+    frames(app, 2.0 + 2.6)  # get ready, then hold the arm down: the judgement asks for more
+    assert screen.step == "longer" and "a little longer" in screen.instruction()
+    frames(app, 2.6)
+    assert screen.step == "forward" and screen.bias_learned
+    assert [p for _, p in tracker.holds] == [None, LONGER_HOLD]
+    assert tracker.holds[0][0] == pytest.approx(2.5, abs=0.011)
+    assert tracker.holds[1][0] == pytest.approx(LONGER_HOLD.duration, abs=0.011)  # the whole hold, both parts
+    tracker.forward = True
+    frames(app, 2.0 + 2.1)
+    assert screen.step == "done" and "learned as you play" not in screen.message
 
 
 def test_a_hold_too_shaky_for_the_bias_still_calibrates_and_says_the_bias_is_learned_in_play(app):
