@@ -34,6 +34,10 @@ MOVE_DEG = math.degrees(StartupParams().max_tilt)  # a pose may drift this far (
 FORWARD_RANGE_DEG = (60.0, 120.0)  # how far "arm straight forward" may be from "arm down"
 HOLD_S = {"down": 2.5, "longer": LONGER_HOLD.duration - 2.5, "forward": 2.0}  # each step's hold (s);
 # "longer" goes on from "down" when the hold's judgement asks for it (tracker.calibration.LONGER_HOLD)
+POSE_WINDOW_S = 1.0  # a held pose is judged and taken over its hold's last second: the player has
+# settled into it, and so has the filter that "hold still" runs again over the hold from a fresh state
+# (over the whole hold the worst plausible player's arm-down poses moved 3.4-12.4 deg, its first half
+# second's settling included; over the last second 1.3-4.1: seeds 0-11, a scratch run)
 
 
 @dataclass(frozen=True)
@@ -109,6 +113,12 @@ def _init_for_rest(avatar: Avatar, q_down: np.ndarray, mount: np.ndarray) -> np.
     avatar.forward_kinematics()
     parent = avatar.world_rot[f"{avatar.body.side}_shoulder"]
     return Q.multiply(parent, Q.conjugate(Q.multiply(parent, Q.multiply(q_down, mount))))
+
+
+def last_held(poses: Sequence[ArmPose]) -> list[ArmPose]:
+    """The poses of a hold's last POSE_WINDOW_S seconds, which make the pose."""
+    end = poses[-1].t if poses else 0.0
+    return [p for p in poses if p.t > end - POSE_WINDOW_S]
 
 
 def arm_down(avatar: Avatar, poses: Sequence[ArmPose]) -> CalibrationResult:

@@ -41,12 +41,11 @@ from ..body.avatar import Avatar, BodySettings
 from ..body.gestures import GestureEvent, GestureMachine
 from ..body.pose import ArmPose
 from ..body.tracking import Tracking
-from ..body.wearing import HOLD_S, arm_down_then_forward
+from ..body.wearing import HOLD_S, POSE_WINDOW_S, arm_down_then_forward
 from .motion_model import PlayerProfile, Session, TrueLaunch, session
 
 MATCH_BEFORE_S = 0.05
 MATCH_AFTER_S = 0.4
-POSE_WINDOW_S = 1.0  # the last second of each calibration hold is used
 CHUNK = 64  # bytes per decoder feed, about what a serial read returns
 LATE_FRACTION = 0.75  # launches after this share of a session count as "late" (drift shows there)
 

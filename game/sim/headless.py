@@ -199,6 +199,8 @@ class Observed:
     play_start: float | None = None
     play_end: float | None = None
     rss_mb: list[float] = field(default_factory=list)  # after the first minute of play, at the end
+    calibration_failures: int = 0  # the guided calibration's attempts that failed (the bot tried again)
+    calibration_step: str = ""  # the calibration step last seen
 
 
 def _body_frame(event: GestureEvent, body_yaw: float) -> GestureEvent:
@@ -292,6 +294,9 @@ def _play(config: MatchConfig, progress: Callable[[str], None] | None) -> dict:
                 frame += 1
                 t = frame / FRAME_HZ
                 view = _screen(screen, screens)
+                if view.step == "failed" and seen.calibration_step != "failed":
+                    seen.calibration_failures += 1
+                seen.calibration_step = view.step
                 action = bot.act(t, view, game.arena, game.avatar.world_pos[f"{game.avatar.body.side}_upper_arm"])
                 walking[0] = action.controls
                 wire.write(board.run_until(t))
@@ -331,6 +336,7 @@ def _report(config: MatchConfig, bot: Bot, board: SimBoard, source: WireInput, a
         "town": arena.town.layout,
         "waves": arena.wave, "survived_s": round(survived, 4), "game_over": bool(arena.game_over),
         "abandoned": seen.play_start is None,  # play never began: setup gave up after MAX_SETUP_S
+        "calibration_failures": seen.calibration_failures,
         "intended_launches": intended, "detected_launches": detected,
         "false_launches": result.false_launches,
         "launch_precision": round(result.matched / detected, 4) if detected else None,
@@ -445,7 +451,8 @@ def summarise(reports: list[dict], wall_s: float) -> dict:
         "matches": len(reports),
         **{k: total(k) for k in ("kills", "shots", "hits", "wall_hits", "obstacle_violations",
                                  "intended_launches", "detected_launches",
-                                 "false_launches", "frames_sent", "frames_decoded", "crc_errors", "dropped")},
+                                 "false_launches", "frames_sent", "frames_decoded", "crc_errors", "dropped",
+                                 "calibration_failures")},
         "launch_precision": round(matched / detected, 4) if detected else None,
         "launch_recall": round(matched / intended, 4) if intended else None,
         **{f"mean_{k}": mean(k) for k in ("score", "survived_s", "kills", "waves", "aim_error_deg_median")},

@@ -31,7 +31,7 @@ from ..body.avatar import Avatar, BodySettings, Wearing
 from ..body.controls import KeyboardMouse, SampleInput, SourceState, TrackerInput
 from ..body.gestures import GestureEvent, GestureMachine, GestureSettings
 from ..body.pose import ArmPose
-from ..body.wearing import HOLD_S, arm_down, arm_down_then_forward, recenter
+from ..body.wearing import HOLD_S, arm_down, arm_down_then_forward, last_held, recenter
 from ..world.arena import Arena, ArenaSettings
 from ..world.arena_model import Controls
 from ..replay.log import SessionLog, SessionRecorder
@@ -392,7 +392,7 @@ class Calibration:
                 # A hold too shaky for the bias is no reason to lock the player out: the filter
                 # learns the bias in play. The pose decides (arm_down says if the arm moved).
                 self.bias_learned = bias.ok
-            result = arm_down(game.avatar, self.poses["down"])
+            result = arm_down(game.avatar, last_held(self.poses["down"]))
             if game.log is not None:
                 game.log.hold("down", result, bias)
             if not result.ok:
@@ -401,7 +401,7 @@ class Calibration:
             self.step, self.clock = "forward", -GET_READY_S
             game.audio.play("click")
             return None
-        result = arm_down_then_forward(game.avatar, self.poses["down"], self.poses["forward"])
+        result = arm_down_then_forward(game.avatar, last_held(self.poses["down"]), last_held(self.poses["forward"]))
         if game.log is not None:
             game.log.hold("forward", result, None)
         if not result.ok:
