@@ -241,7 +241,8 @@ def _covered(t: Array) -> float:
 class StartupParams:
     """Settings of :func:`startup_bias`.
 
-    ``duration``: seconds of the hold needed (the game holds 2-2.5 s). ``max_bias``:
+    ``duration``: seconds of the hold needed (the game holds 2.5 s; 5 s, :data:`LONGER_HOLD`, when
+    that asks for more). ``max_bias``:
     a larger mean rate on any axis (rad/s) is refused: the MPU-9250's zero-rate output
     is within +-5 deg/s at 25 degC and moves by up to +-30 deg/s over its temperature
     range (PS-MPU-9250A-01 rev. 1.1, table 1; a profile's gyro_bias_dps allows 30), so
