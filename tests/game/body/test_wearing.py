@@ -8,7 +8,8 @@ from scipy.spatial.transform import Rotation
 
 from game.body.avatar import Avatar, BodySettings
 from game.body.pose import ArmPose
-from game.body.wearing import arm_down, arm_down_then_forward, mean_orientation, net_move_deg, recenter
+from game.body.wearing import (POSE_WINDOW_S, arm_down, arm_down_then_forward, last_held, mean_orientation,
+                               net_move_deg, recenter)
 from tracker import quat as Q
 
 HEADING = Rotation.from_euler("z", 40, degrees=True)  # the player faces 40 deg left of the tracker's y
@@ -111,6 +112,24 @@ def test_tremor_and_sway_pass_and_their_mean_is_the_pose(seconds):
         mean = mean_orientation([p.q_upper for p in poses])
         truth = wxyz(HEADING * q_bs)
         assert math.degrees(Q.angle_between(mean, truth)) < 4.0
+
+
+def test_a_pose_is_its_holds_last_second_so_a_settling_start_is_left_out():
+    """"Hold still" runs the filter again over the hold from a fresh state, and its first poses
+    are still settling: here 20 deg off about the arm's swing axis for the first 0.4 s. Over the
+    whole 2.5 s hold that reads as a move (the start's 0.67 s Hann window is mostly inside the
+    settling); the hold's last second (POSE_WINDOW_S) is the pose: 100 poses, at 1.5-2.49 s,
+    still, and their mean the truth within the 0.3 deg tremor."""
+    q_bs = worn(25, 10)
+    settled = hold(Rotation.identity(), q_bs, seconds=2.5)
+    off = wxyz(HEADING * Rotation.from_euler("x", 20, degrees=True) * HEADING.inv())  # a world turn
+    poses = [ArmPose(tuple(Q.multiply(off, p.q_upper)), p.flex_deg, p.t) if p.t < 0.4 else p for p in settled]
+    assert not arm_down(Avatar(BodySettings()), poses).ok
+    last = last_held(poses)
+    assert len(last) == round(POSE_WINDOW_S * 100) and last[0].t == pytest.approx(1.5) and last[-1] is poses[-1]
+    assert arm_down(Avatar(BodySettings()), last).ok
+    mean = mean_orientation([p.q_upper for p in last])
+    assert math.degrees(Q.angle_between(mean, wxyz(HEADING * q_bs))) < 0.3
 
 
 @pytest.mark.parametrize("degrees, seconds, refused", [(20.0, 1.0, True), (12.0, 2.0, True), (5.0, 2.0, False)])
