@@ -32,7 +32,8 @@ from .pose import ArmPose, Quat
 MOVE_DEG = math.degrees(StartupParams().max_tilt)  # a pose may drift this far (deg) from its start
 # to its end: a postural sway of up to 4 deg peak swings the arm up to 8 deg (the start-up hold's bound)
 FORWARD_RANGE_DEG = (60.0, 120.0)  # how far "arm straight forward" may be from "arm down"
-HOLD_S = {"down": 2.5, "longer": LONGER_HOLD.duration - 2.5, "forward": 2.0}  # each step's hold (s);
+DOWN_S = 2.5  # the arm-down hold (s)
+HOLD_S = {"down": DOWN_S, "longer": LONGER_HOLD.duration - DOWN_S, "forward": 2.0}  # each step's hold (s);
 # "longer" goes on from "down" when the hold's judgement asks for it (tracker.calibration.LONGER_HOLD)
 POSE_WINDOW_S = 1.0  # a held pose is judged and taken over its hold's last second: the player has
 # settled into it, and so has the filter that "hold still" runs again over the hold from a fresh state
