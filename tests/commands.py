@@ -1,8 +1,9 @@
 """Running ``armtracker`` and ``energyball`` as a user does (a separate process), and ending them with signals.
 
-Every run gets a throwaway HOME. The child starts with SIGINT at its default,
-so Python turns it into Ctrl-C even when the test runner was started in the
-background (where a shell leaves SIGINT ignored, and a child would inherit that).
+Every run gets a throwaway HOME. The child starts with SIGINT, SIGTERM and SIGHUP
+at their defaults, as from a terminal, whatever the test runner inherited: a shell
+leaves SIGINT ignored in a background job, ``nohup`` SIGHUP, and a child would
+inherit that (our commands leave an ignored signal ignored, as the user asked).
 """
 
 from __future__ import annotations
@@ -21,8 +22,10 @@ ROOT = Path(__file__).resolve().parents[1]
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
-def _default_sigint() -> None:
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
+def terminal_dispositions() -> None:
+    """In the child before it runs: the ending signals at their defaults."""
+    for s in SIGNALS:
+        signal.signal(s, signal.SIG_DFL)
 
 
 def env_for(home: Path) -> dict[str, str]:
@@ -32,14 +35,15 @@ def env_for(home: Path) -> dict[str, str]:
 def run(package: str, *args: str, home: Path, timeout: float = 120) -> subprocess.CompletedProcess:
     """``python -m package args`` to the end."""
     return subprocess.run([sys.executable, "-m", package, *args], capture_output=True, text=True, timeout=timeout,
-                          cwd=ROOT, env=env_for(home), stdin=subprocess.DEVNULL, preexec_fn=_default_sigint)
+                          cwd=ROOT, env=env_for(home), stdin=subprocess.DEVNULL,
+                          preexec_fn=terminal_dispositions)
 
 
 def start(package: str, *args: str, home: Path) -> subprocess.Popen:
     """``python -m package args`` started, its output collected for :func:`finish`."""
     return subprocess.Popen([sys.executable, "-m", package, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, cwd=ROOT, env=env_for(home), stdin=subprocess.DEVNULL,
-                            preexec_fn=_default_sigint)
+                            preexec_fn=terminal_dispositions)
 
 
 def finish(proc: subprocess.Popen, timeout: float = 120) -> subprocess.CompletedProcess:

@@ -23,7 +23,7 @@ import pytest
 
 from tracker import calibration as C
 
-from ..commands import ROOT, _default_sigint
+from ..commands import ROOT, terminal_dispositions
 
 BOARD = "virtual-imu-71"  # the virtual board's file: the real firmware's HELLO, marked virtual
 DAMAGED = b'{"format": "energyball board calibration", "vers'
@@ -43,7 +43,7 @@ def start(home: Path, *args: str) -> subprocess.Popen:
     home.mkdir(parents=True, exist_ok=True)
     return subprocess.Popen([sys.executable, "-m", "tracker", *args], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, cwd=ROOT, env=env(home),
-                            stdin=subprocess.DEVNULL, preexec_fn=_default_sigint)
+                            stdin=subprocess.DEVNULL, preexec_fn=terminal_dispositions)
 
 
 def run(home: Path, *args: str, timeout: float = 60) -> subprocess.CompletedProcess:
