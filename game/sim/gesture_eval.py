@@ -42,7 +42,7 @@ from ..body.gestures import GestureEvent, GestureMachine
 from ..body.pose import ArmPose
 from ..body.tracking import Tracking
 from ..body.wearing import HOLD_S, POSE_WINDOW_S, arm_down_then_forward
-from .motion_model import PlayerProfile, Session, TrueLaunch, session
+from .motion_model import Interval, PlayerProfile, Session, TrueLaunch, session
 
 MATCH_BEFORE_S = 0.05
 MATCH_AFTER_S = 0.4
@@ -128,6 +128,13 @@ def _held(samples: Sequence[P.RawSample], down: tuple[float, float], last_s: flo
     return [s for s in samples if _within(s.t, down, last_s)]
 
 
+def _calibration(script: Session) -> tuple[Interval, Interval]:
+    """The session's (arm down, arm forward) intervals: every session played here is scripted with them."""
+    if script.calibration is None:
+        raise ValueError("a session played as a player's first evening begins with the wearing calibration")
+    return script.calibration
+
+
 def _played(profile: PlayerProfile, seed: int, gestures: int,
             board: BoardCalibration) -> tuple[Session, list[P.RawSample], StartupParams | None]:
     """The session, its samples and how its hold is judged: the game's "hold still" first, and
@@ -135,7 +142,7 @@ def _played(profile: PlayerProfile, seed: int, gestures: int,
     the same player holding on as the game asks (``HOLD_S["longer"]``), judged over the longer hold."""
     script = session(profile, seed, gestures=gestures)
     samples = board_stream(script, profile, seed)
-    if not Tracking(board=board).hold_still(_held(samples, script.calibration[0]))[0].hold_longer:
+    if not Tracking(board=board).hold_still(_held(samples, _calibration(script)[0]))[0].hold_longer:
         return script, samples, None
     script = session(profile, seed, gestures=gestures, hold_on_s=HOLD_S["longer"])
     return script, board_stream(script, profile, seed), LONGER_HOLD
@@ -150,7 +157,7 @@ def run_trial(profile: PlayerProfile, seed: int, gestures: int = 10, magnetomete
     """
     board, maker_problem = maker_calibration(profile, seed)
     script, samples, hold_params = _played(profile, seed, gestures, board)
-    down, forward = script.calibration
+    down, forward = _calibration(script)
     still = _held(samples, down, hold_params.duration if hold_params else None)
     tracking = Tracking(use_magnetometer=magnetometer, board=board)
     avatar = Avatar(BodySettings(upper_arm_m=profile.upper_arm_m, forearm_m=profile.forearm_m))
