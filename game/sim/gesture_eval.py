@@ -118,12 +118,12 @@ def aim_split_deg(reported: Sequence[float], true: Sequence[float]) -> tuple[flo
     return across * math.cos(math.radians(true_el)), el - true_el
 
 
-def _within(t: float, interval: tuple[float, float], last_s: float | None = None) -> bool:
+def _within(t: float, interval: Interval, last_s: float | None = None) -> bool:
     t0, t1 = interval
     return (t1 - last_s if last_s else t0) <= t < t1
 
 
-def _held(samples: Sequence[P.RawSample], down: tuple[float, float], last_s: float | None = None) -> list[P.RawSample]:
+def _held(samples: Sequence[P.RawSample], down: Interval, last_s: float | None = None) -> list[P.RawSample]:
     """The samples of the arm-down hold (its last ``last_s`` seconds)."""
     return [s for s in samples if _within(s.t, down, last_s)]
 
@@ -191,7 +191,7 @@ def run_trial(profile: PlayerProfile, seed: int, gestures: int = 10, magnetomete
     return result
 
 
-def score_launches(truth: Sequence[TrueLaunch], idle_intervals: Sequence[tuple[float, float]],
+def score_launches(truth: Sequence[TrueLaunch], idle_intervals: Sequence[Interval],
                    launches: Sequence[GestureEvent], result: TrialResult,
                    late_from: float = math.inf) -> list[TrueLaunch]:
     """Match reported launches to the true ones (module docstring) into ``result``; the unmatched true ones.
