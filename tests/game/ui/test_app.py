@@ -170,12 +170,34 @@ def test_the_menu_says_the_virtual_player_needs_no_calibration_and_stays(tmp_pat
         a.close()
 
 
+def turning_arm(rate_hz: float):
+    """A worn board whose arm never holds still: raised 30 degrees, it circles the vertical (a cone)
+    once in 6 s, so the arm's direction turns some 30 degrees in every second of any hold and the
+    accelerometer sees it. (A steady turn about the vertical alone would read as a gyroscope bias, and
+    the virtual board's default arm swings back and forth: where its swings turn back together a
+    second of it moves less than sway may, and a hold passed there once on a loaded machine.)"""
+    import numpy as np
+
+    from tracker import quat
+    from tracker.sim import Motion, SimulatedSource, Simulator, arm_chain, realistic_errors
+
+    def root(t):
+        around = np.radians(60.0) * t
+        raised = quat.multiply(quat.from_axis_angle((0, 0, 1), around),
+                               quat.from_axis_angle((0, 1, 0), np.full_like(t, np.radians(30.0))))
+        return quat.multiply(raised, quat.from_axis_angle((0, 0, 1), -around))
+
+    motion = Motion(root, lambda t: np.zeros((len(t), 1)))
+    return SimulatedSource(Simulator(arm_chain(), motion, realistic_errors(), seed=0), rate_hz)
+
+
 def test_calibrating_a_board_that_keeps_moving_fails_with_the_reason(app):
     import time
 
-    from tracker.board import VirtualBoard
+    from tracker.board import BoardSettings, VirtualBoard
 
-    with VirtualBoard() as board:  # its simulated arm never holds still
+    settings = BoardSettings()
+    with VirtualBoard(turning_arm(settings.rate_hz), settings) as board:
         app.game.use_board(board.port)
         assert app.game.tracker.opened.wait(5.0)
         app.screen = Calibration(app.game, then_play=False)
@@ -186,7 +208,7 @@ def test_calibrating_a_board_that_keeps_moving_fails_with_the_reason(app):
             time.sleep(DT)
             if app.screen.step == "failed":
                 break
-        assert app.screen.step == "failed" and "moved" in app.screen.message
+        assert app.screen.step == "failed" and "moved" in app.screen.message, app.screen.message
         assert "R: try again" in app.screen.message
 
 
