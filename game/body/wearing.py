@@ -29,8 +29,8 @@ from tracker.calibration import LONGER_HOLD, TREMOR_MIN_HZ, StartupParams
 from .avatar import Avatar, Wearing
 from .pose import ArmPose, Quat
 
-MOVE_DEG = math.degrees(StartupParams().max_tilt)  # a pose may drift this far (deg) from its start
-# to its end: a postural sway of up to 4 deg peak swings the arm up to 8 deg (the start-up hold's bound)
+MOVE_DEG = math.degrees(StartupParams().max_tilt)  # a pose's smoothed orientations may lie this far
+# apart (deg): a postural sway of up to 4 deg peak swings the arm up to 8 deg (the start-up hold's bound)
 FORWARD_RANGE_DEG = (60.0, 120.0)  # how far "arm straight forward" may be from "arm down"
 DOWN_S = 2.5  # the arm-down hold (s)
 HOLD_S = {"down": DOWN_S, "longer": LONGER_HOLD.duration - DOWN_S, "forward": 2.0}  # each step's hold (s);
@@ -67,27 +67,32 @@ def _hann_mean(quats: np.ndarray, t: np.ndarray, t0: float, length: float) -> np
     return Q.normalize(w @ quats)
 
 
-def net_move_deg(poses: Sequence[ArmPose]) -> float:
-    """How far the arm turned (deg) from the start of a held pose to its end, tremor and sway aside.
+def moved_deg(poses: Sequence[ArmPose]) -> float:
+    """How far the arm turned (deg) during a held pose, tremor and sway aside.
 
-    Tremor and sway oscillate about the pose, a move persists: the low-passed
-    orientations at the two ends are compared (Hann windows of 2 / TREMOR_MIN_HZ, whose first
-    zero is the slowest tremor, or half the pose when it is shorter), which tremor at
-    TREMOR_MIN_HZ and above hardly reaches. Sway swings at most twice its peak.
+    Tremor and sway oscillate about the pose, a move does not: the orientations are
+    low-passed (Hann windows of 2 / TREMOR_MIN_HZ, whose first zero is the slowest tremor,
+    or half the pose when it is shorter), which tremor at TREMOR_MIN_HZ and above hardly
+    reaches, at the pose's start, its end and every quarter window between, and the move is
+    the widest angle between two of them: an arm that went out and came back moved too, though
+    its ends agree. Sway swings at most twice its peak.
     """
     q = np.asarray([p.q_upper for p in poses], dtype=float)
     q = q * np.where(q @ q[0] < 0, -1.0, 1.0)[:, None]
     t = np.asarray([p.t for p in poses], dtype=float)
     length = max(1e-9, min(2.0 / TREMOR_MIN_HZ, (t[-1] - t[0]) / 2))
-    start, end = _hann_mean(q, t, t[0], length), _hann_mean(q, t, t[-1] - length, length)
-    return float(np.degrees(Q.angle_between(start, end)))
+    room = max(0.0, t[-1] - length - t[0])  # how far the window slides
+    starts = np.linspace(t[0], t[0] + room, 2 + math.ceil(4.0 * room / length))
+    means = np.array([_hann_mean(q, t, start, length) for start in starts])
+    closest = float(np.min(np.clip(np.abs(means @ means.T), 0.0, 1.0)))
+    return math.degrees(2.0 * math.acos(closest))
 
 
 def _still(poses: Sequence[ArmPose], what: str) -> tuple[np.ndarray | None, str]:
     """The pose's mean orientation, or why the arm did not hold it."""
     if len(poses) < 2:
         return None, f"{what}: no samples arrived (is the board streaming?)"
-    moved = net_move_deg(poses)
+    moved = moved_deg(poses)
     if moved > MOVE_DEG:
         return None, (f"{what}: the arm moved {moved:.1f} degrees during the pose; hold it still "
                       f"(a still arm drifts less than {MOVE_DEG:.1f}) and try again")

@@ -9,7 +9,7 @@ from scipy.spatial.transform import Rotation
 from game.body.avatar import Avatar, BodySettings
 from game.body.pose import ArmPose
 from game.body.wearing import (POSE_WINDOW_S, arm_down, arm_down_then_forward, last_held, mean_orientation,
-                               net_move_deg, recenter)
+                               moved_deg, recenter)
 from tracker import quat as Q
 
 HEADING = Rotation.from_euler("z", 40, degrees=True)  # the player faces 40 deg left of the tracker's y
@@ -146,7 +146,31 @@ def test_a_real_move_during_a_pose_is_rejected_with_a_message(degrees, seconds, 
     assert result.ok != refused, result.message
     if refused:
         assert result.message.startswith("arm down: the arm moved") and result.wearing == avatar.wearing
-        assert 0.7 * degrees < net_move_deg(poses) <= degrees + 1.0
+        assert 0.7 * degrees < moved_deg(poses) <= degrees + 1.0
+
+
+@pytest.mark.parametrize("seconds", [1.0, 2.0])
+def test_an_arm_that_moves_out_and_back_during_a_pose_is_rejected(seconds):
+    """A 20 deg raise and back (minimum jerk, out over the pose's second quarter, back over its
+    third), with a 1 deg tremor at 5 Hz: the pose's two halves are mirror images, so their means
+    agree (a judgement by the ends alone took it), but the arm moved and the pose's mean is off."""
+    def rise(s):
+        s = np.clip(s, 0.0, 1.0)
+        return 10 * s ** 3 - 15 * s ** 4 + 6 * s ** 5
+
+    def moves(t):
+        raised = 20.0 * (rise((t - seconds / 4) / (seconds / 4)) - rise((t - seconds / 2) / (seconds / 4)))
+        return np.radians(np.stack([raised + np.sin(2 * np.pi * 5 * t), np.zeros_like(t), np.zeros_like(t)], axis=1))
+    q_bs = worn(0, 0)
+    avatar = Avatar(BodySettings())
+    poses = shaky_hold(Rotation.identity(), q_bs, moves, seconds)
+    half = len(poses) // 2
+    ends = [Rotation.from_quat([[*p.q_upper[1:], p.q_upper[0]] for p in part]).mean()
+            for part in (poses[:half], poses[half:])]
+    assert (ends[0].inv() * ends[1]).magnitude() < math.radians(1.0)  # scipy: the halves agree
+    result = arm_down(avatar, poses)
+    assert not result.ok and result.message.startswith("arm down: the arm moved"), result.message
+    assert 8.5 < moved_deg(poses) <= 21.0
 
 
 def test_a_forward_pose_that_is_not_forward_is_rejected():
