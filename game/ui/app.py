@@ -22,6 +22,7 @@ import numpy as np
 import pygame
 
 from tracker import protocol as P
+from tracker import signals
 from tracker.accel_procedure import FACES, TILTED
 from tracker.calibration import LONGER_HOLD, BoardCalibration, board_id_of, load_for_hello
 from tracker.link import LinkSettings, find_boards
@@ -970,7 +971,9 @@ class App:
                 notices.append(f"{e}; using {loaded.input!r}")
         flags = pygame.RESIZABLE | (pygame.FULLSCREEN if loaded.fullscreen else 0)
         try:
-            self.surface = pygame.display.set_mode(size, flags)
+            with signals.deferred():  # set_mode loads the window's icon through Python and drops what that
+                # raises: an ending signal arriving then (Ctrl-C, SIGTERM) would be lost, so it waits for the window
+                self.surface = pygame.display.set_mode(size, flags)
         except pygame.error as e:  # no display here, or none that can make this window
             raise WindowError(str(e)) from None
         pygame.display.set_caption("EnergyBall")

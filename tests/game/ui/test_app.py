@@ -212,6 +212,35 @@ def test_calibrating_a_board_that_keeps_moving_fails_with_the_reason(app):
         assert "R: try again" in app.screen.message
 
 
+def test_a_signal_while_the_window_opens_is_not_lost(tmp_path, monkeypatch):
+    """pygame's set_mode loads the window's icon through Python (``pygame.pkgdata.getResource``) and
+    drops whatever that raises: a SIGTERM handled just then was lost, and a headless run of a thousand
+    matches played on (the hosted CI, 2026-12-06). Here the signal arrives inside that very call."""
+    import signal
+
+    import pygame.pkgdata
+
+    from tracker import signals
+
+    real, calls = pygame.pkgdata.getResource, []
+
+    def icon_with_a_signal(*args, **kwargs):
+        calls.append(args)
+        signal.raise_signal(signal.SIGTERM)
+        return real(*args, **kwargs)
+
+    pygame.quit()  # a fresh display, which loads its icon again
+    monkeypatch.setattr(pygame.pkgdata, "getResource", icon_with_a_signal)
+    try:
+        with pytest.raises(KeyboardInterrupt) as stop:
+            with signals.interrupts():
+                App(Preferences(input="keyboard"), config_dir=tmp_path)
+    finally:
+        pygame.quit()
+    assert calls and calls[0][0].endswith("icon.bmp")  # the signal did arrive inside the icon's loading
+    assert signals.signum_of(stop.value) == signal.SIGTERM
+
+
 def test_a_port_that_cannot_be_opened_falls_back_to_the_keyboard_with_a_notice(tmp_path):
     a = App(Preferences(input="/dev/ttyNOPE"), config_dir=tmp_path, seed=1)
     try:
