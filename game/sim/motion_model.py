@@ -719,8 +719,8 @@ class Script:
         return edited
 
     def _draw_tremor(self, rng: np.random.Generator) -> _Oscillations:
-        """Two components per swing axis within TREMOR_SPREAD_HZ of tremor_hz, half of
-        tremor_deg each, and half as much twist (class docstring)."""
+        """TREMOR_COMPONENTS sines per swing axis within TREMOR_SPREAD_HZ of tremor_hz, sharing
+        tremor_deg equally, and half as much twist (class docstring)."""
         a, f = self.profile.tremor_deg, self.profile.tremor_hz
         rows = [(_CHANNELS.index("sx"), a), (_CHANNELS.index("sy"), a), (_CHANNELS.index("tw"), a / 2)]
         return _draw(rng, rows, TREMOR_COMPONENTS, (f - TREMOR_SPREAD_HZ, f + TREMOR_SPREAD_HZ))
