@@ -84,8 +84,7 @@ def moved_deg(poses: Sequence[ArmPose]) -> float:
     room = max(0.0, t[-1] - length - t[0])  # how far the window slides
     starts = np.linspace(t[0], t[0] + room, 2 + math.ceil(4.0 * room / length))
     means = np.array([_hann_mean(q, t, start, length) for start in starts])
-    closest = float(np.min(np.clip(np.abs(means @ means.T), 0.0, 1.0)))
-    return math.degrees(2.0 * math.acos(closest))
+    return math.degrees(float(np.max(Q.angle_between(means[:, None], means[None, :]))))
 
 
 def _still(poses: Sequence[ArmPose], what: str) -> tuple[np.ndarray | None, str]:
