@@ -445,6 +445,54 @@ def swinging(seconds: float, swing_deg: float, rate: float = 0.5, k: float = 3.0
     return gyr, acc, np.stack([wx, c * wy + s * wz, -s * wy + c * wz], axis=1)  # R^T field, R = Rx(angle)
 
 
+def refuted(refutations: int, north_deg: float, rate: float = 0.5):
+    """:func:`turning`'s board (one unbroken turn) through a clean spell, then ``refutations``
+    times a spell whose field gets :func:`turning`'s hard iron (found bad) and a clean spell long
+    enough for the field to be checked again (``mag_on_t`` of turning once the bad window is
+    forgotten), the last with the field's north turned ``north_deg`` east; and where each spell
+    starts (s)."""
+    clean, bad, last = 25.0, 10.0, 90.0
+    spells = [(clean, False)] + [(bad, True), (clean + 15.0, False)] * refutations
+    spells[-1] = (last, False)
+    n = int(sum(d for d, _ in spells) * RATE)
+    angle = rate * np.arange(n) / RATE
+    c, s = np.cos(angle), np.sin(angle)
+    last_start = int((sum(d for d, _ in spells) - last) * RATE)
+    d = np.where(np.arange(n) >= last_start, math.radians(north_deg), 0.0)
+    wx, wy, wz = 20.0 * np.sin(d), 20.0 * np.cos(d), np.full(n, -40.0)  # the world field (ENU)
+    mag = np.stack([wx, c * wy + s * wz, -s * wy + c * wz], axis=1)  # R^T field, R = Rx(angle)
+    at = 0
+    for seconds, hard in spells:
+        if hard:
+            mag[at:at + int(seconds * RATE)] += np.array([30.0, 20.0, 0.0])
+        at += int(seconds * RATE)
+    up = np.stack([np.zeros(n), s, c], axis=1)
+    return np.tile([rate, 0.0, 0.0], (n, 1)), 9.81 * up, mag, last_start
+
+
+@pytest.mark.parametrize("refutations", [1, 3])
+def test_a_field_found_bad_after_each_check_counts_less_each_time(refutations):
+    # A field that passes its check and is found bad again n times counts 1 / (1 + n) as much: its
+    # north turned 10 deg in the last spell (strength and dip the same, the gyroscope exact), the
+    # heading follows from the field's return at the rate w / tau (probation's tau for mag_on_t,
+    # then tau_mag) worked by hand, w = 1 / (1 + n): a first-order loop, as for a swinging field.
+    # Counting a quarter (n = 3), less than a field spreading mag_weak_sd would, it is weak.
+    p = DefaultFilter.Params()
+    gyr, acc, mag, last_start = refuted(refutations, 10.0)
+    f, heading, used = make("default"), np.empty(len(gyr)), np.zeros(len(gyr), bool)
+    for i in range(len(gyr)):
+        f.update(gyr[i], acc[i], mag[i], 1 / RATE)
+        heading[i] = math.degrees(f.get_state().heading)
+        used[i] = f.status in ("magnetometer on", MAG_WEAK)
+    assert f.get_state().mag_refuted == refutations
+    on = last_start + int(np.argmax(used[last_start:]))
+    assert used[on:].all() and on > last_start
+    w = 1.0 / (1.0 + refutations)
+    rate = w * (p.mag_on_t / p.tau_mag_probation + ((len(gyr) - on) / RATE - p.mag_on_t) / p.tau_mag)
+    assert heading[-1] - heading[on] == pytest.approx(10.0 * (1.0 - math.exp(-rate)), rel=0.05)
+    assert (f.status == MAG_WEAK) == (refutations == 3) and f.flags.mag_unusable == (refutations == 3)
+
+
 def heading_deg(q: np.ndarray) -> np.ndarray:
     """The heading of :func:`turning`'s board (its x axis stays horizontal): east of north, deg."""
     x = Q.rotate(q, np.array([1.0, 0.0, 0.0]))

@@ -54,7 +54,11 @@ Two things hold up on a real player with a real board:
   heading innovation (the field's heading against the gyroscope's) then
   spreads as the arm moves, and the field counts as much less as a Kalman
   gain would for that noise (x-io Fusion's magnetic rejection judges the
-  same innovation; here it weighs rather than switches).
+  same innovation; here it weighs rather than switches). A field that
+  passes its check and is found bad again, time after time, is a room
+  whose field varies from place to place: each such refutation makes it
+  count less (:meth:`DefaultFilter._heading_weight`), until the heading is
+  the gyroscope's, as without a magnetometer.
 """
 
 from __future__ import annotations
@@ -232,6 +236,7 @@ class DefaultState:
     mag_good_t: float = 0.0  # seconds an unusable field has been consistent while turning
     mag_checked: bool = False  # the field has proved consistent while the board turned
     mag_reason: str = ""  # why the magnetometer is off ("": not found inconsistent)
+    mag_refuted: int = 0  # times a field that had passed its check was found bad afterwards
     mag_use_t: float = 0.0  # seconds the field has been in use since it was last switched on
     taught_heading: float = 0.0  # the heading turns it made on probation (rad) ...
     taught_bias: Vec = (0.0, 0.0, 0.0)  # ... and the bias it taught: taken back if it is found bad
@@ -258,8 +263,8 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
     def status(self) -> str:
         """The magnetometer's use in words: "magnetometer on", "magnetometer off: <why>",
         "magnetometer being checked" (its field not yet consistent for ``mag_on_t``; the heading
-        is the gyroscope's meanwhile), :data:`MAG_WEAK` (in use, but its heading spreads beyond
-        ``mag_weak_sd``: it counts a third or less) or "no magnetometer" (none seen yet)."""
+        is the gyroscope's meanwhile), :data:`MAG_WEAK` (in use, but it counts a third or less:
+        :attr:`field_weight`) or "no magnetometer" (none seen yet)."""
         s = self._state
         if s.mag_reason:
             return "magnetometer off: " + s.mag_reason
@@ -267,7 +272,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
             return "no magnetometer"
         if not s.mag_checked:
             return "magnetometer being checked"
-        return MAG_WEAK if self.heading_spread > self.params.mag_weak_sd else "magnetometer on"
+        return MAG_WEAK if self._weak() else "magnetometer on"
 
     @property
     def heading(self) -> float:
@@ -285,6 +290,18 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         ``mag_window_t`` (rad, a standard deviation; :meth:`_heading_weight`)."""
         hx, hy = self._state.win_head
         return math.sqrt(max(0.0, 2.0 * (1.0 - math.sqrt(hx * hx + hy * hy))))
+
+    @property
+    def field_weight(self) -> float:
+        """How much the field's heading counts now, 1 at most: less as its heading spreads
+        beyond ``mag_head_sd`` and each time it was found bad after its check (:meth:`_heading_weight`)."""
+        spread, sd = self.heading_spread, self.params.mag_head_sd
+        return (1.0 if spread <= sd else sd / spread) / (1.0 + self._state.mag_refuted)
+
+    def _weak(self) -> bool:
+        """The field counts less than a field whose heading spreads ``mag_weak_sd`` would."""
+        p = self.params
+        return self.field_weight < p.mag_head_sd / p.mag_weak_sd
 
     def _step(self, gyr: Vec, acc: Vec | None, mag: Vec | None, dt: float) -> Quat:
         s, p = self._state, self.params
@@ -326,7 +343,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
             if mag != s.mag_last or s.mag_dt >= p.mag_held_t:  # (a still board's readings may repeat)
                 self._correct_heading(q6, mag, s.mag_dt)
                 s.mag_last, s.mag_dt = mag, 0.0
-        self.flags.mag_unusable = s.mag_reason != "" or (s.mag_checked and self.heading_spread > p.mag_weak_sd)
+        self.flags.mag_unusable = s.mag_reason != "" or (s.mag_checked and self._weak())
         s.q = normalize(mul(about_z(s.heading), q6))
         return s.q
 
@@ -727,6 +744,21 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         ``mag_head_sd``, mag_head_sd / spread beyond, never 0 (the spread is at
         most sqrt(2)). (x-io Fusion rejects a field whose
         heading innovation is large; this weighs it instead.)
+
+        A field that passed its check (:meth:`_judge_field`: consistent for
+        ``mag_on_t`` while the board turned) and was found bad afterwards n
+        times counts 1 / (1 + n) as much, its noise's spread taken as n + 1 times
+        what the window shows. Each refutation says the window's spread
+        understates the noise: the field was consistent where the arm had just
+        been and not where it went, so the heading it gives at one place differs
+        from another's by more than any window there shows. Such a room (a
+        disturbance of 17-40 uT that varies with position, beside a horizontal
+        field of 20 uT) turned a fast player's heading after the wearing
+        calibration by 5-6 degrees more than the gyroscope alone let it stray,
+        settling it to its own heading at the places the arm then went (README,
+        "Open (issue 12)"). As refutations add up the heading becomes the
+        gyroscope's, as without a magnetometer, while a field never found bad
+        after its check counts as before, bit for bit.
         """
         s, p = self._state, self.params
         if s.t <= p.startup_t:
@@ -741,8 +773,7 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
             if a > 1.0:
                 a = 1.0
             s.win_head = (hx + a * (c - hx), hy + a * (sn - hy))
-        spread = self.heading_spread
-        return 1.0 if spread <= p.mag_head_sd else p.mag_head_sd / spread
+        return self.field_weight
 
     def _field_undisturbed(self, norm: float, dip: float, dt: float) -> bool:
         """Magnetic disturbance test on the field's norm and dip angle (VQF sec. 3.4)."""
@@ -801,8 +832,10 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         reason = (MAG_STRENGTH if s.win_norm_var > th_norm * th_norm else
                   MAG_DIP if s.win_dip_var > p.mag_dip_sd_th * p.mag_dip_sd_th else "")
         if reason:
-            if s.mag_checked and s.mag_use_t <= p.mag_on_t:  # found bad on probation
-                self._take_back_field()
+            if s.mag_checked:  # found bad after its check: the check was refuted
+                s.mag_refuted += 1
+                if s.mag_use_t <= p.mag_on_t:  # on probation
+                    self._take_back_field()
             s.mag_reason, s.mag_good_t, s.mag_checked = reason, 0.0, False
         elif not s.mag_checked:
             (y0, y1, y2), (z0, z1, z2) = s.win_y, s.win_z
