@@ -439,35 +439,36 @@ def swinging(seconds: float, swing_deg: float, rate: float = 0.5, k: float = 3.0
     disturbance that varies with position as a judge of strength and dip cannot see it."""
     gyr, acc, _ = turning(seconds, np.zeros(3), rate)
     angle = rate * np.arange(len(gyr)) / RATE
-    d = np.radians(swing_deg) * np.sin(k * angle)
+    return gyr, acc, field_seen(angle, np.radians(swing_deg) * np.sin(k * angle))
+
+
+def field_seen(angle: np.ndarray, north: np.ndarray) -> np.ndarray:
+    """The field (0, 20, -40) uT with its north turned ``north`` (rad) east, as :func:`turning`'s
+    board reads it at ``angle``: R^T field, R = Rx(angle)."""
     c, s = np.cos(angle), np.sin(angle)
-    wx, wy, wz = 20.0 * np.sin(d), 20.0 * np.cos(d), np.full_like(d, -40.0)  # the world field
-    return gyr, acc, np.stack([wx, c * wy + s * wz, -s * wy + c * wz], axis=1)  # R^T field, R = Rx(angle)
+    wx, wy, wz = 20.0 * np.sin(north), 20.0 * np.cos(north), np.full_like(north, -40.0)  # the world field
+    return np.stack([wx, c * wy + s * wz, -s * wy + c * wz], axis=1)
 
 
 def refuted(refutations: int, north_deg: float, rate: float = 0.5):
     """:func:`turning`'s board (one unbroken turn) through a clean spell, then ``refutations``
     times a spell whose field gets :func:`turning`'s hard iron (found bad) and a clean spell long
     enough for the field to be checked again (``mag_on_t`` of turning once the bad window is
-    forgotten), the last with the field's north turned ``north_deg`` east; and where each spell
-    starts (s)."""
+    forgotten), the last with the field's north turned ``north_deg`` east: gyroscope,
+    accelerometer, magnetometer and the sample the last spell starts at."""
     clean, bad, last = 25.0, 10.0, 90.0
     spells = [(clean, False)] + [(bad, True), (clean + 15.0, False)] * refutations
     spells[-1] = (last, False)
-    n = int(sum(d for d, _ in spells) * RATE)
-    angle = rate * np.arange(n) / RATE
-    c, s = np.cos(angle), np.sin(angle)
-    last_start = int((sum(d for d, _ in spells) - last) * RATE)
-    d = np.where(np.arange(n) >= last_start, math.radians(north_deg), 0.0)
-    wx, wy, wz = 20.0 * np.sin(d), 20.0 * np.cos(d), np.full(n, -40.0)  # the world field (ENU)
-    mag = np.stack([wx, c * wy + s * wz, -s * wy + c * wz], axis=1)  # R^T field, R = Rx(angle)
+    gyr, acc, _ = turning(sum(d for d, _ in spells), np.zeros(3), rate)
+    n, last_start = len(gyr), int((sum(d for d, _ in spells) - last) * RATE)
+    north = np.where(np.arange(n) >= last_start, math.radians(north_deg), 0.0)
+    mag = field_seen(rate * np.arange(n) / RATE, north)
     at = 0
     for seconds, hard in spells:
         if hard:
             mag[at:at + int(seconds * RATE)] += np.array([30.0, 20.0, 0.0])
         at += int(seconds * RATE)
-    up = np.stack([np.zeros(n), s, c], axis=1)
-    return np.tile([rate, 0.0, 0.0], (n, 1)), 9.81 * up, mag, last_start
+    return gyr, acc, mag, last_start
 
 
 @pytest.mark.parametrize("refutations", [1, 3])
