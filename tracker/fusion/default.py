@@ -754,9 +754,9 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         from another's by more than any window there shows. Such a room (a
         disturbance of 17-40 uT that varies with position, beside a horizontal
         field of 20 uT) turned a fast player's heading after the wearing
-        calibration by 5-6 degrees more than the gyroscope alone let it stray,
-        settling it to its own heading at the places the arm then went (README,
-        "Open (issue 12)"). As refutations add up the heading becomes the
+        calibration toward its own heading at the places the arm then went,
+        making the late aim up to 3.7 degrees worse than with the gyroscope
+        alone (README, "Open (issue 12)"). As refutations add up the heading becomes the
         gyroscope's, as without a magnetometer, while a field never found bad
         after its check counts as before, bit for bit.
         """
