@@ -272,17 +272,19 @@ def cmd_bench(args: argparse.Namespace) -> int:
 ENVELOPE_COLUMNS = (("calibration_ok_rate", "calib ok"), ("launch_precision", "precision"),
                     ("launch_recall", "recall"), ("false_launches_per_min", "false/min"),
                     ("aim_error_deg_median", "aim med"), ("aim_error_deg_p95", "aim p95"),
-                    ("aim_error_deg_median_late", "aim late"), ("latency_ms_median", "lat med"),
+                    ("aim_error_deg_median_late", "aim late"), ("aim_error_deg_median_late_ci95", "late 95%"),
+                    ("latency_ms_median", "lat med"),
                     ("latency_ms_p95", "lat p95"), ("launches", "launches"))
 
 
 def envelope_table(players: dict[str, dict]) -> str:
-    """The envelope as a plain-text table, one row per player."""
+    """The envelope as a plain-text table, one row per player (an interval as its two ends)."""
     width = max(len(name) for name in players)
     rows = [f"{'player':{width}s}  " + "  ".join(f"{title:>9s}" for _, title in ENVELOPE_COLUMNS)]
     for name, report in players.items():
-        rows.append(f"{name:{width}s}  " + "  ".join(f"{'-' if report[key] is None else report[key]:>9}"
-                                                      for key, _ in ENVELOPE_COLUMNS))
+        cells = ("-" if v is None else "-".join(map(str, v)) if isinstance(v, list) else v
+                 for v in (report[key] for key, _ in ENVELOPE_COLUMNS))
+        rows.append(f"{name:{width}s}  " + "  ".join(f"{cell:>9}" for cell in cells))
     return "\n".join(rows)
 
 

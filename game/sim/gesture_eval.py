@@ -43,6 +43,7 @@ from ..body.pose import ArmPose
 from ..body.tracking import Tracking
 from ..body.wearing import HOLD_S, POSE_WINDOW_S, arm_down_then_forward
 from .motion_model import Interval, PlayerProfile, Session, TrueLaunch, session
+from .session_bootstrap import percentile_interval
 
 MATCH_BEFORE_S = 0.05
 MATCH_AFTER_S = 0.4
@@ -272,14 +273,23 @@ def summarise(results: list[TrialResult]) -> dict:
     def pct(values: list[float], q: float) -> float | None:
         return round(float(np.percentile(values, q)), 2) if values else None
 
+    def interval(per_session: list[list[float]], q: float) -> list[float] | None:
+        """The figure's 95 % interval, as other sessions could give it (:mod:`.session_bootstrap`)."""
+        ends = percentile_interval(per_session, q)
+        return list(ends) if ends else None
+
     return {
         "launch_precision": round(matched / reported, 4) if reported else None,
         "launch_recall": round(matched / true, 4) if true else None,
         "false_launches_per_min": round(sum(r.idle_false_launches for r in results) / idle_minutes, 4)
         if idle_minutes else None,
         "latency_ms_median": pct(latency, 50), "latency_ms_p95": pct(latency, 95),
-        "aim_error_deg_median": pct(aim, 50), "aim_error_deg_p95": pct(aim, 95),
+        "aim_error_deg_median": pct(aim, 50),
+        "aim_error_deg_median_ci95": interval([r.aim_errors_deg for r in results], 50),
+        "aim_error_deg_p95": pct(aim, 95),
+        "aim_error_deg_p95_ci95": interval([r.aim_errors_deg for r in results], 95),
         "aim_error_deg_median_late": pct(late, 50),
+        "aim_error_deg_median_late_ci95": interval([r.late_aim_errors_deg for r in results], 50),
         "aim_azimuth_error_deg_median": pct([abs(az) for az, _ in split], 50),
         "aim_elevation_error_deg_median": pct([abs(el) for _, el in split], 50),
         "aim_azimuth_error_deg_median_late": pct([abs(az) for az, _ in late_split], 50),
