@@ -19,7 +19,7 @@ from typing import Sequence
 
 import numpy as np
 
-RESAMPLES = 2000  # session sets drawn: the interval's ends move by about 0.01 deg between seeds
+RESAMPLES = 2000  # session sets drawn: an end of a 2.5 deg interval over 30 sessions moves 0.02 deg (sd) by seed
 LEVEL = 0.95
 SEED = 0
 
