@@ -277,14 +277,19 @@ ENVELOPE_COLUMNS = (("calibration_ok_rate", "calib ok"), ("launch_precision", "p
                     ("latency_ms_p95", "lat p95"), ("launches", "launches"))
 
 
+def _cell(value: object) -> str:
+    """A report's value as the envelope's table shows it: "-" for none, an interval as its two ends."""
+    if value is None:
+        return "-"
+    return "-".join(map(str, value)) if isinstance(value, list) else str(value)
+
+
 def envelope_table(players: dict[str, dict]) -> str:
-    """The envelope as a plain-text table, one row per player (an interval as its two ends)."""
+    """The envelope as a plain-text table, one row per player."""
     width = max(len(name) for name in players)
     rows = [f"{'player':{width}s}  " + "  ".join(f"{title:>9s}" for _, title in ENVELOPE_COLUMNS)]
     for name, report in players.items():
-        cells = ("-" if v is None else "-".join(map(str, v)) if isinstance(v, list) else v
-                 for v in (report[key] for key, _ in ENVELOPE_COLUMNS))
-        rows.append(f"{name:{width}s}  " + "  ".join(f"{cell:>9}" for cell in cells))
+        rows.append(f"{name:{width}s}  " + "  ".join(f"{_cell(report[key]):>9}" for key, _ in ENVELOPE_COLUMNS))
     return "\n".join(rows)
 
 
