@@ -281,7 +281,7 @@ def _cell(value: object) -> str:
     """A report's value as the envelope's table shows it: "-" for none, an interval as its two ends."""
     if value is None:
         return "-"
-    return "-".join(map(str, value)) if isinstance(value, list) else str(value)
+    return "-".join(map(str, value)) if isinstance(value, (list, tuple)) else str(value)
 
 
 def envelope_table(players: dict[str, dict]) -> str:

@@ -265,18 +265,14 @@ def summarise(results: list[TrialResult]) -> dict:
     true = sum(r.true_launches for r in results)
     idle_minutes = sum(r.idle_minutes for r in results)
     latency = [x for r in results for x in r.latencies_ms]
-    aim = [x for r in results for x in r.aim_errors_deg]
+    aim_by_session = [r.aim_errors_deg for r in results]
+    aim = [x for errors in aim_by_session for x in errors]
     late = [x for r in results for x in r.late_aim_errors_deg]
     split = [x for r in results for x in r.aim_split_deg]
     late_split = [x for r in results for x in r.late_aim_split_deg]
 
     def pct(values: list[float], q: float) -> float | None:
         return round(float(np.percentile(values, q)), 2) if values else None
-
-    def interval(per_session: list[list[float]], q: float) -> list[float] | None:
-        """The figure's 95 % interval, as other sessions could give it (:mod:`.session_bootstrap`)."""
-        ends = percentile_interval(per_session, q)
-        return list(ends) if ends else None
 
     return {
         "launch_precision": round(matched / reported, 4) if reported else None,
@@ -285,11 +281,11 @@ def summarise(results: list[TrialResult]) -> dict:
         if idle_minutes else None,
         "latency_ms_median": pct(latency, 50), "latency_ms_p95": pct(latency, 95),
         "aim_error_deg_median": pct(aim, 50),
-        "aim_error_deg_median_ci95": interval([r.aim_errors_deg for r in results], 50),
+        "aim_error_deg_median_ci95": percentile_interval(aim_by_session, 50),  # over other sessions
         "aim_error_deg_p95": pct(aim, 95),
-        "aim_error_deg_p95_ci95": interval([r.aim_errors_deg for r in results], 95),
+        "aim_error_deg_p95_ci95": percentile_interval(aim_by_session, 95),
         "aim_error_deg_median_late": pct(late, 50),
-        "aim_error_deg_median_late_ci95": interval([r.late_aim_errors_deg for r in results], 50),
+        "aim_error_deg_median_late_ci95": percentile_interval([r.late_aim_errors_deg for r in results], 50),
         "aim_azimuth_error_deg_median": pct([abs(az) for az, _ in split], 50),
         "aim_elevation_error_deg_median": pct([abs(el) for _, el in split], 50),
         "aim_azimuth_error_deg_median_late": pct([abs(az) for az, _ in late_split], 50),
