@@ -13,7 +13,8 @@ The orientation is kept as three factors (VQF sec. 3)::
     q_WS = q_heading (about world z)  *  q_inc (I -> E, no heading)  *  q_gyr (S -> I)
 
 ``q_gyr`` is pure strapdown integration of the bias-corrected gyroscope into
-an almost-inertial frame I. The accelerometer, rotated into I, is low-pass
+an almost-inertial frame I (each turn led to undo the chip's low-pass, which
+would turn a tremor's coning into drift: ``gyro_lead_s``). The accelerometer, rotated into I, is low-pass
 filtered there: in I the gravity direction moves only as slowly as q_gyr
 drifts, while linear accelerations of real motion average out. ``q_inc`` is
 the rotation that makes this filtered direction vertical. ``q_heading`` turns
@@ -168,6 +169,9 @@ class DefaultParams:
     drift_settle_t: float = 20.0  # a calibrated warm-up's drift is taught by motion only this long after the start, s
     acc_lead_s: float = 0.0  # how much more recent the accelerometer's reading is than the gyroscope's, s
     # (the MPU-9250's low-pass filters delay them differently: tracker.mpu_dlpf, 1.02 ms at 200 Hz)
+    gyro_lead_s: float = 0.0  # each sample's turn is led by this much of the rate's change, s: gives a tremor
+    # back the amplitude the gyroscope's low-pass took, whose coning it would otherwise integrate as a drift
+    # (tracker.mpu_dlpf.Response.amplitude_lead_s, 2.12 ms at 200 Hz; 0: the rates as read)
     mag_norm_th: float = 0.1  # field norm deviating by more than this fraction: disturbed
     mag_dip_th: float = math.radians(10.0)  # dip angle deviating by more than this: disturbed
     mag_ref_tau: float = 20.0  # how fast the undisturbed field reference (norm, dip) adapts
@@ -205,6 +209,7 @@ class DefaultState:
     head_lp: LowPass2  # the heading innovation as a unit vector (cos, sin, 0), low-passed
     turned_lp: LowPass2  # the bias-corrected rate low-passed as the accelerometer in I is: the recent turn
     sens: Sensitivity  # the gyroscope's residual sensitivity, learned in play
+    rate_last: Vec | None = None  # the last sample's corrected rate (gyro_lead_s), None before the first
     rate_sum: Vec = (0.0, 0.0, 0.0)  # the corrected rate's integral since the last bias update
     tilt_sum: tuple[float, float] = (0.0, 0.0)  # the inclination corrections since the last bias update
     tilt_dt: float = 0.0  # over this long (s) ...
@@ -310,13 +315,14 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         self._drift_bias(dt)
         if acc is not None:
             self._detect_rest(gyr, acc, dt)
-        # 1. Strapdown integration of the bias-corrected rate (VQF sec. 3.1).
+        # 1. Strapdown integration of the bias-corrected rate (VQF sec. 3.1), led as the gyroscope's
+        #    low-pass asks (Mark and Tazartes 2000: _led).
         b = s.bias
         w = (gyr[0] - b[0], gyr[1] - b[1], gyr[2] - b[2])
         learn_sens = p.sens_prior > 0.0
         if learn_sens:
             w = s.sens.correct(w)
-        s.q_gyr = normalize(integrate(s.q_gyr, w, dt))
+        s.q_gyr = normalize(integrate(s.q_gyr, self._led(w, dt), dt))
         s.turned_lp.step(w, dt)
         # 2. Inclination from the accelerometer low-passed in frame I (VQF sec. 3.2),
         #    and the bias from the correction while in motion (VQF sec. 3.3, Mahony eq. 32).
@@ -346,6 +352,18 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         self.flags.mag_unusable = s.mag_reason != "" or (s.mag_checked and self._weak())
         s.q = normalize(mul(about_z(s.heading), q6))
         return s.q
+
+    def _led(self, w: Vec, dt: float) -> Vec:
+        """The rate whose turn over ``dt`` is w dt + L (w - w_last), L = ``gyro_lead_s``: the
+        gyroscope's low-pass undone to second order in frequency, so a tremor's coning is taken
+        back as the arm made it (:meth:`tracker.mpu_dlpf.Response.amplitude_lead_s`). The first
+        sample has nothing to lead from."""
+        s, lead = self._state, self.params.gyro_lead_s
+        last, s.rate_last = s.rate_last, w
+        if lead == 0.0 or last is None:
+            return w
+        k = lead / dt
+        return w[0] + k * (w[0] - last[0]), w[1] + k * (w[1] - last[1]), w[2] + k * (w[2] - last[2])
 
     # ------------------------------------------------------------ rest and bias
 
@@ -508,8 +526,9 @@ class DefaultFilter(Filter[DefaultParams, DefaultState]):
         # back, a tilt half a step behind the heading, and a fast snap with a slow return (every launch)
         # left a mean lean along the snap that the bias loop read as a bias, which walked the heading
         # (README, "A step taken for a ramp": 5-10 degrees in 90 s for the fastest simulated players).
-        # A reading the sensor's low-pass delays less than the rates (acc_lead_s) is that much more recent.
-        h = 0.5 * dt - self.params.acc_lead_s
+        # A reading the sensor's low-pass delays less than the rates (acc_lead_s) is that much more recent;
+        # led by gyro_lead_s (_led), the strapdown is that much more recent than the rates.
+        h = 0.5 * dt - self.params.acc_lead_s + self.params.gyro_lead_s
         c = cross(w, acc)
         a_i = rotate(s.q_gyr, (acc[0] - h * c[0], acc[1] - h * c[1], acc[2] - h * c[2]))
         if s.t <= self.params.startup_t:  # fast start: the plain mean, ended where the board's swing is undone
@@ -854,14 +873,16 @@ FILTER_CLASS = DefaultFilter
 def for_mpu9250(rate_hz: float, at_shoulder: bool = False) -> DefaultFilter:
     """The default filter for an MPU-9250 streaming at ``rate_hz``: told how much more recently its
     accelerometer reads than its gyroscope at the firmware's low-pass setting (``acc_lead_s``,
-    :class:`tracker.mpu_dlpf.Dlpf`). ``at_shoulder``: its accelerometer is moved to the
+    :class:`tracker.mpu_dlpf.Dlpf`), and how far to lead the rates to undo that low-pass's
+    attenuation of a tremor (``gyro_lead_s``, :meth:`tracker.mpu_dlpf.Response.amplitude_lead_s`). ``at_shoulder``: its accelerometer is moved to the
     shoulder (:mod:`tracker.lever_arm`), so the gyroscope's residual sensitivity is learned
     (:mod:`tracker.fusion.sensitivity`), and the bias loop's turn gates open to
     ``SHOULDER_TURN_RATE``: the tilt a turn leaves, which they keep from being learned as a
     bias, is the residual's to explain there, and a fast player, who turns faster than 0.25
     rad/s most of the time, would teach the bias too little to hold the heading (README,
     "A fast player's bias at the shoulder")."""
-    params = DefaultParams(acc_lead_s=Dlpf.for_rate(rate_hz).acc_lead_s)
+    dlpf = Dlpf.for_rate(rate_hz)
+    params = DefaultParams(acc_lead_s=dlpf.acc_lead_s, gyro_lead_s=dlpf.gyro.amplitude_lead_s(rate_hz))
     if at_shoulder:
         params = replace(params, sens_prior=SHOULDER_SENS_PRIOR, bias_turn_rate=SHOULDER_TURN_RATE,
                          bias_turned_rate=SHOULDER_TURN_RATE)
