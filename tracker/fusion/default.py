@@ -14,8 +14,8 @@ The orientation is kept as three factors (VQF sec. 3)::
 
 ``q_gyr`` is pure strapdown integration of the bias-corrected gyroscope into
 an almost-inertial frame I (each turn led to undo the chip's low-pass, which
-would turn a tremor's coning into drift: ``gyro_lead_s``). The accelerometer, rotated into I, is low-pass
-filtered there: in I the gravity direction moves only as slowly as q_gyr
+would turn a tremor's coning into drift: ``gyro_lead_s``). The accelerometer,
+rotated into I, is low-pass filtered there: in I the gravity direction moves only as slowly as q_gyr
 drifts, while linear accelerations of real motion average out. ``q_inc`` is
 the rotation that makes this filtered direction vertical. ``q_heading`` turns
 the horizontal part of the magnetic field, seen in the 6D frame, to north.
@@ -874,7 +874,8 @@ def for_mpu9250(rate_hz: float, at_shoulder: bool = False) -> DefaultFilter:
     """The default filter for an MPU-9250 streaming at ``rate_hz``: told how much more recently its
     accelerometer reads than its gyroscope at the firmware's low-pass setting (``acc_lead_s``,
     :class:`tracker.mpu_dlpf.Dlpf`), and how far to lead the rates to undo that low-pass's
-    attenuation of a tremor (``gyro_lead_s``, :meth:`tracker.mpu_dlpf.Response.amplitude_lead_s`). ``at_shoulder``: its accelerometer is moved to the
+    attenuation of a tremor (``gyro_lead_s``, :meth:`tracker.mpu_dlpf.Response.amplitude_lead_s`).
+    ``at_shoulder``: its accelerometer is moved to the
     shoulder (:mod:`tracker.lever_arm`), so the gyroscope's residual sensitivity is learned
     (:mod:`tracker.fusion.sensitivity`), and the bias loop's turn gates open to
     ``SHOULDER_TURN_RATE``: the tilt a turn leaves, which they keep from being learned as a
