@@ -31,7 +31,7 @@ def coning_rates(freq: float, seconds: float) -> np.ndarray:
     t = np.arange(round(seconds * INTERNAL_HZ)) / INTERNAL_HZ
 
     def q(at: np.ndarray) -> np.ndarray:
-        return quat.from_rotvec(np.stack([A * np.cos(w * at), B * np.sin(w * at), 0.0 * at], axis=-1))
+        return quat.from_rotvec(np.stack([A * np.cos(w * at), B * np.sin(w * at), np.zeros_like(at)], axis=-1))
 
     h = 1e-6
     dq = (q(t + h) - q(t - h)) / (2.0 * h)
@@ -72,7 +72,7 @@ def test_the_lead_adds_no_turn_of_its_own():
     # L (w_end - w_first) = 0, so the angle is the rates' integral, whatever the lead (worked by hand).
     t = np.arange(400) / RATE
     w = np.where((t > 0.2) & (t < 1.6), np.sin(math.pi * (t - 0.2) / 1.4) ** 2 * 3.0, 0.0)
-    rates = np.stack([0.0 * t, 0.0 * t, w], axis=-1)
+    rates = np.stack([np.zeros_like(t), np.zeros_like(t), w], axis=-1)
     for lead in (0.0, 0.002, 0.005):
         f = DefaultFilter(DefaultParams(gyro_lead_s=lead))
         for r in rates:
@@ -84,6 +84,7 @@ def test_the_games_filter_leads_the_rates_as_the_firmwares_low_pass_asks():
     # At 200 Hz the firmware sets the 41 Hz low-pass: T = 1 / (2 pi 41) s, and L solves
     # L / dt + (L / dt)^2 = (T / dt)^2, dt = 5 ms: L = 2.117 ms (worked by hand).
     ratio = 200.0 / (2.0 * math.pi * 41.0)
-    assert for_mpu9250(200.0).params.gyro_lead_s == pytest.approx((math.sqrt(1 + 4 * ratio ** 2) - 1) / 400.0)
-    assert for_mpu9250(200.0).params.gyro_lead_s == pytest.approx(2.117e-3, abs=1e-6)
+    lead = for_mpu9250(200.0).params.gyro_lead_s
+    assert lead == pytest.approx((math.sqrt(1 + 4 * ratio ** 2) - 1) / 400.0)
+    assert lead == pytest.approx(2.117e-3, abs=1e-6)
     assert DefaultParams().gyro_lead_s == 0.0  # a recording of another board: its rates as read
