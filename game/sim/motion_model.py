@@ -271,8 +271,8 @@ def catalogue(folder: str | os.PathLike = PROFILES_DIR) -> dict[str, PlayerProfi
 
 
 # The keys a drawn player varies: the harsh world's (issue 12's table) over their whole ranges, the
-# board's bias over its range, and speed and noise over the span where every hold can be judged
-# (at the slowest speed some holds run out of the game's time: README, "Headless matches").
+# board's bias over its range, and speed and noise over the span every draw so far was measured in
+# (README, "Players between the catalogue's"): widening it would redraw every player named there.
 DRAWN_SPANS: dict[str, tuple[float, float]] = {
     **{key: _RANGES[key][:2] for key in (
         "tremor_deg", "tremor_hz", "sway_deg", "wobble_deg", "wobble_hz", "twist_follow", "slip_deg_per_min",
