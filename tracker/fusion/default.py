@@ -17,9 +17,9 @@ an almost-inertial frame I (each turn led to undo the chip's low-pass, which
 would turn a tremor's coning into drift: ``gyro_lead_s``). The accelerometer,
 rotated into I, is low-pass filtered there: in I the gravity direction moves
 only as slowly as q_gyr drifts, while linear accelerations of real motion
-average out. ``q_inc`` is
-the rotation that makes this filtered direction vertical. ``q_heading`` turns
-the horizontal part of the magnetic field, seen in the 6D frame, to north.
+average out. ``q_inc`` is the rotation that makes this filtered direction
+vertical. ``q_heading`` turns the horizontal part of the magnetic field, seen
+in the 6D frame, to north.
 
 Two things hold up on a real player with a real board:
 
