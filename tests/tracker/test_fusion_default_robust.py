@@ -494,6 +494,41 @@ def test_a_field_found_bad_after_each_check_counts_less_each_time(refutations):
     assert (f.status == MAG_WEAK) == (refutations == 3) and f.flags.mag_unusable == (refutations == 3)
 
 
+@pytest.mark.parametrize("trusted", [False, True])
+def test_a_field_found_bad_before_it_is_trusted_leaves_the_heading_as_none_would(trusted):
+    # The field passes its first check (north true, the gyroscope exact); 10 s into its use its
+    # north turns 10 deg (a disturbance at the places the arm now goes: strength and dip the same)
+    # and the heading follows; then the field gets turning's hard iron and is found bad. Found bad
+    # after 22 s of use (past its slow mag_on_t, within mag_trust_t), all it turned is taken back:
+    # the heading is the exact gyroscope's, 0, as without a magnetometer. Found bad after twice
+    # mag_trust_t, it had proved itself: what it turned stays.
+    p = DefaultFilter.Params()
+    bad_after = 2 * p.mag_trust_t if trusted else 22.0
+    assert p.mag_on_t < 22.0 < p.mag_trust_t
+    gyr, acc, _ = turning(40.0 + bad_after + 10.0, np.zeros(3))
+    n = len(gyr)
+    f, heading, on, refuted_at = make("default"), np.empty(n), None, None
+    hard = np.array([30.0, 20.0, 0.0])
+    for i in range(n):
+        in_use = None if on is None else (i - on) / RATE
+        north = math.radians(10.0) if in_use is not None and in_use >= 10.0 else 0.0
+        m = field_seen(np.array([0.5 * i / RATE]), np.array([north]))[0]
+        f.update(gyr[i], acc[i], m + (hard if in_use is not None and in_use >= bad_after else 0.0), 1 / RATE)
+        heading[i] = math.degrees(f.get_state().heading)
+        if on is None and f.status in ("magnetometer on", MAG_WEAK):
+            on = i
+        if refuted_at is None and f.get_state().mag_refuted:
+            refuted_at = i
+    assert on is not None and refuted_at is not None and f.status.startswith("magnetometer off")
+    assert (refuted_at - on) / RATE > bad_after and ((refuted_at - on) / RATE <= p.mag_trust_t) != trusted
+    before = heading[refuted_at - 1]
+    assert before > 2.0, before  # the field had turned the heading toward its north
+    if trusted:
+        assert heading[-1] == pytest.approx(before, abs=0.01)  # kept
+    else:
+        assert abs(heading[-1]) < 0.01, heading[-1]  # taken back: as the exact gyroscope left it
+
+
 def heading_deg(q: np.ndarray) -> np.ndarray:
     """The heading of :func:`turning`'s board (its x axis stays horizontal): east of north, deg."""
     x = Q.rotate(q, np.array([1.0, 0.0, 0.0]))
