@@ -49,9 +49,10 @@ Two things hold up on a real player with a real board:
   judged as well). A field found inconsistent is switched off (heading from
   the gyroscope alone; :attr:`DefaultFilter.status` says why) until it has
   stayed consistent for a while with the board turning. A field switched on
-  again is on probation: it turns the heading slowly, and if it is found bad
-  within twice that while, what it taught is taken back, so it leaves the
-  pose as no magnetometer would have. A disturbance that varies with
+  again is on probation: it turns the heading slowly for ``mag_on_t``, and
+  if it is found bad within ``mag_trust_t`` of use (twice that), what it
+  taught is taken back, so it leaves the pose as no magnetometer would
+  have. A disturbance that varies with
   position can also turn the field's direction while its norm and dip stay
   the same: the heading innovation (the field's heading against the
   gyroscope's) then spreads as the arm moves, and the field counts as much
