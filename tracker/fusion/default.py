@@ -52,16 +52,16 @@ Two things hold up on a real player with a real board:
   again is on probation: it turns the heading slowly for ``mag_on_t``, and
   if it is found bad within ``mag_trust_t`` of use (twice that), what it
   taught is taken back, so it leaves the pose as no magnetometer would
-  have. A disturbance that varies with
-  position can also turn the field's direction while its norm and dip stay
-  the same: the heading innovation (the field's heading against the
-  gyroscope's) then spreads as the arm moves, and the field counts as much
-  less as a Kalman gain would for that noise (x-io Fusion's magnetic
-  rejection judges the same innovation; here it weighs rather than
-  switches). A field that passes its check and is found bad again, time
-  after time, is a room whose field varies from place to place: each such
-  refutation makes it count less (:meth:`DefaultFilter._heading_weight`),
-  until the heading is the gyroscope's, as without a magnetometer.
+  have. A disturbance that varies with position can also turn the field's
+  direction while its norm and dip stay the same: the heading innovation
+  (the field's heading against the gyroscope's) then spreads as the arm
+  moves, and the field counts as much less as a Kalman gain would for that
+  noise (x-io Fusion's magnetic rejection judges the same innovation; here
+  it weighs rather than switches). A field that passes its check and is
+  found bad again, time after time, is a room whose field varies from place
+  to place: each such refutation makes it count less
+  (:meth:`DefaultFilter._heading_weight`), until the heading is the
+  gyroscope's, as without a magnetometer.
 """
 
 from __future__ import annotations
