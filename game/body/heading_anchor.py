@@ -23,6 +23,12 @@ uncertain by p0 that has since drifted by a ramp; here it is applied to each
 turn as it comes. That share of each turn moves "forward" with the heading,
 so a turn that settles the start's error leaves the aim alone, and a turn
 that corrects the gyroscope's drift minutes later reaches it.
+
+A field not yet trusted turns the heading provisionally: found bad, the
+filter gives back what it turned (``DefaultFilter.provisional_heading``).
+"Forward" then gives back what it followed of those turns, all of those made
+before it was taken (the calibration saw them) and its share of each made
+after, so the aim is where it would have been had the field never turned it.
 """
 
 from __future__ import annotations
@@ -44,20 +50,36 @@ class HeadingAnchor:
     p0: float = 0.0  # the variance of the heading it was taken from (rad^2)
     heading: float = 0.0  # the filter's heading at the last sample (rad)
     offset: float = 0.0  # the turn about world z taken off the filter's pose (rad)
+    provisional: float = 0.0  # the filter's provisional share of its heading at the last sample (rad) ...
+    taken_back: int = 0  # ... and how many times it had given such turns back
+    held: float = 0.0  # what "forward" has followed of the provisional turns (rad): given back with them
 
-    def set(self, t: float, heading: float, spread: float) -> None:
-        """"Forward" was taken at ``t`` from a heading (rad) whose field spread by ``spread`` (rad).
+    def set(self, t: float, heading: float, spread: float, provisional: float = 0.0, taken_back: int = 0) -> None:
+        """"Forward" was taken at ``t`` from a heading (rad) whose field spread by ``spread`` (rad),
+        ``provisional`` of it turned by a field not yet trusted, given back ``taken_back`` times so far.
 
-        The offset so far stays: the pose the calibration saw had it taken off."""
+        The offset so far stays: the pose the calibration saw had it taken off. So did the
+        provisional turns: "forward" followed all of them."""
         self.t0, self.p0, self.heading = t, spread * spread, heading
+        self.provisional, self.taken_back, self.held = provisional, taken_back, provisional
 
-    def follow(self, t: float, heading: float) -> float:
-        """The offset (rad) after the filter's heading became ``heading`` at ``t``."""
+    def follow(self, t: float, heading: float, provisional: float = 0.0, taken_back: int = 0) -> float:
+        """The offset (rad) after the filter's heading became ``heading`` at ``t``, ``provisional``
+        of it turned by a field not yet trusted, such turns given back ``taken_back`` times so far."""
         if self.t0 is None:
             return 0.0
         turn = (heading - self.heading + math.pi) % (2.0 * math.pi) - math.pi
         self.heading = heading
+        if taken_back != self.taken_back:  # the filter gave back the provisional turns: so does "forward"
+            turn += self.provisional
+            self.offset -= self.held
+            self.provisional, self.held = 0.0, 0.0
+        self.taken_back = taken_back
         drift = GYRO_HEADING_SD * (t - self.t0)
         if self.p0 > 0.0:
             self.offset += turn * self.p0 / (self.p0 + drift * drift)
+            self.held += (provisional - self.provisional) * self.p0 / (self.p0 + drift * drift)
+        if not provisional:
+            self.held = 0.0  # trusted: nothing is left to give back
+        self.provisional = provisional
         return self.offset

@@ -72,8 +72,10 @@ class Tracking:
     def anchor_heading(self) -> None:
         """The wearing calibration took "forward" from the pose just given: from now on the
         turns of the magnetometer's heading that settle the start's error leave it (HeadingAnchor)."""
-        if isinstance(self.filter, DefaultFilter) and self._last_t is not None:
-            self.anchor.set(self._last_t, self.filter.heading, self.filter.heading_spread)
+        f = self.filter
+        if isinstance(f, DefaultFilter) and self._last_t is not None:
+            f.reference_taken()
+            self.anchor.set(self._last_t, f.heading, f.heading_spread, f.provisional_heading, f.taken_back)
 
     def feed(self, sample: P.RawSample | P.FusedSample) -> ArmPose:
         """The arm pose after one sample."""
@@ -92,7 +94,8 @@ class Tracking:
                                          self.filter.quat, dt, self.filter.params.acc_lead_s)
         q = self.filter.update(gyr, acc, mag if self.use_magnetometer else None, dt)
         if self.anchor.t0 is not None and isinstance(self.filter, DefaultFilter):
-            offset = self.anchor.follow(t, self.filter.heading)
+            f = self.filter
+            offset = self.anchor.follow(t, f.heading, f.provisional_heading, f.taken_back)
             if offset:  # a clean field (or none) leaves it 0: no turn to compose per sample
                 q = mul(about_z(-offset), q)
         return ArmPose(q, self.flex.update(sample.flex_adc, t).deg, t)

@@ -529,6 +529,39 @@ def test_a_field_found_bad_before_it_is_trusted_leaves_the_heading_as_none_would
         assert abs(heading[-1]) < 0.01, heading[-1]  # taken back: as the exact gyroscope left it
 
 
+@pytest.mark.parametrize("referenced", [False, True])
+def test_what_a_field_still_being_checked_settled_after_the_reference_is_given_back(referenced):
+    # The field settles the heading before its first check (mag_on_t); the game takes "forward" at
+    # 3 s (reference_taken). From 4 s to 8 s the field's north turns 10 deg east (a disturbance at the
+    # places the arm now goes: strength and dip the same) and the heading follows; at 9 s the field
+    # gets turning's hard iron and is found bad, still before its check. What it settled after the
+    # reference is given back: the heading is the one the reference saw (the gyroscope is exact),
+    # as without a magnetometer from then on. Never referenced (the tracker's own use) it stays.
+    p = DefaultFilter.Params()
+    gyr, acc, _ = turning(14.0, np.zeros(3))
+    hard = np.array([30.0, 20.0, 0.0])
+    f, heading, refuted_at, seen = make("default"), np.empty(len(gyr)), None, None
+    for i in range(len(gyr)):
+        t = i / RATE
+        if referenced and t == 3.0:
+            f.reference_taken()
+            seen = f.get_state().heading
+        north = math.radians(10.0) * min(1.0, max(0.0, (t - 4.0) / 4.0))
+        m = field_seen(np.array([0.5 * t]), np.array([north]))[0] + (hard if t >= 9.0 else 0.0)
+        f.update(gyr[i], acc[i], m, 1 / RATE)
+        heading[i] = math.degrees(f.get_state().heading)
+        if refuted_at is None and f.status.startswith("magnetometer off"):
+            refuted_at = i
+    assert refuted_at is not None and refuted_at / RATE < p.startup_t + p.mag_on_t  # before its check
+    before = heading[refuted_at - 1]
+    assert before > 2.0, before  # the field had settled the heading toward its north
+    assert f.taken_back == int(referenced) and f.provisional_heading == 0.0
+    if referenced:
+        assert heading[-1] == pytest.approx(math.degrees(seen), abs=0.01)  # given back
+    else:
+        assert heading[-1] == pytest.approx(before, abs=0.01)  # kept
+
+
 def heading_deg(q: np.ndarray) -> np.ndarray:
     """The heading of :func:`turning`'s board (its x axis stays horizontal): east of north, deg."""
     x = Q.rotate(q, np.array([1.0, 0.0, 0.0]))

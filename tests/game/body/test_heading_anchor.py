@@ -32,6 +32,27 @@ def test_each_turn_moves_forward_by_the_fixed_point_smoothers_share():
     assert anchor.follow(0.0, math.radians(-179.0)) - far == pytest.approx(2 * DEG)
 
 
+def test_turns_given_back_by_the_filter_are_given_back_by_forward_too():
+    # Worked by hand with the shares above (5 deg spread, s = 0.4 deg/s). "Forward" is taken at 10 s
+    # from a heading holding 1 deg a field not yet trusted turned: forward followed all of it. At
+    # once the field turns 2 deg more (share 1), at 22.5 s 4 deg more (share a half): the offset is
+    # 2 + 2 = 4 deg, and forward has followed 1 + 2 + 2 = 5 deg of the 7 provisional. Found bad, the
+    # filter gives back all 7: the heading ends 1 deg below where forward was taken, the offset
+    # -1 deg, so the pose is where the calibration saw it, as if the field had never turned it.
+    anchor = HeadingAnchor()
+    anchor.set(10.0, 0.3, 5 * DEG, 1 * DEG, 0)
+    assert anchor.follow(10.0, 0.3 + 2 * DEG, 3 * DEG, 0) == pytest.approx(2 * DEG)
+    assert anchor.follow(22.5, 0.3 + 6 * DEG, 7 * DEG, 0) == pytest.approx(4 * DEG)
+    offset = anchor.follow(23.0, 0.3 - 1 * DEG, 0.0, 1)
+    assert offset == pytest.approx(-1 * DEG) and (0.3 - 1 * DEG) - offset == pytest.approx(0.3)
+    # A field that is trusted keeps what it turned: its provisional share becomes 0, nothing moves.
+    anchor.set(30.0, 0.3, 5 * DEG, 0.0, 1)
+    anchor.follow(30.0, 0.3 + 2 * DEG, 2 * DEG, 1)
+    kept = anchor.follow(31.0, 0.3 + 2 * DEG, 0.0, 1)
+    assert kept == pytest.approx(offset + 2 * DEG) and anchor.held == 0.0
+    assert anchor.follow(32.0, 0.3 + 2 * DEG, 0.0, 2) == kept  # a give-back with nothing provisional
+
+
 def test_a_calibration_from_a_clean_field_lets_every_turn_through():
     anchor = HeadingAnchor()
     anchor.set(0.0, 0.0, 0.0)  # a field that did not spread: its heading was right
