@@ -108,3 +108,15 @@ def test_forward_stays_where_the_calibration_saw_it_while_the_field_settles(monk
     # pipelines that agree on the player (with the drift's settling, session 3 went 2.49 -> 3.17 deg,
     # all launches 2.10 -> 2.24): every session stays well below the field's unanchored 4.5 deg.
     assert max(kept) <= 3.5, kept
+
+
+def test_a_field_found_bad_while_still_being_checked_leaves_the_aim_near_no_magnetometers():
+    # The magnetic room's session 5 (traced, docs/gesture-accuracy-log.md): its field was still being
+    # checked at the wearing calibration, settled the heading -2.3 deg over the next 30 s and was then
+    # found bad. Kept, those turns left 9D's median aim 1.9 deg worse than 6D's over these 30 gestures
+    # (2.23 against 0.35 deg); given back with what "forward" followed of them, 9D is within a degree.
+    from game.sim.motion_model import catalogue
+
+    room = catalogue()["magnetic_room"]
+    nine, six = (float(np.median(run_trial(room, 5, 30, mag).aim_errors_deg)) for mag in (True, False))
+    assert nine <= six + 1.0, (nine, six)
