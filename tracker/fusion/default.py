@@ -53,12 +53,12 @@ Two things hold up on a real player with a real board:
   if it is found bad within ``mag_trust_t`` of use (twice that), what it
   taught is taken back (as is what a field still being checked settled
   since the heading was taken as a reference), so it leaves the pose as no
-  magnetometer would have. A disturbance that varies with position can also turn the field's
-  direction while its norm and dip stay the same: the heading innovation
-  (the field's heading against the gyroscope's) then spreads as the arm
-  moves, and the field counts as much less as a Kalman gain would for that
-  noise (x-io Fusion's magnetic rejection judges the same innovation; here
-  it weighs rather than switches). A field that passes its check and is
+  magnetometer would have. A disturbance that varies with position can
+  also turn the field's direction while its norm and dip stay the same: the
+  heading innovation (the field's heading against the gyroscope's) then
+  spreads as the arm moves, and the field counts as much less as a Kalman
+  gain would for that noise (x-io Fusion's magnetic rejection judges the
+  same innovation; here it weighs rather than switches). A field that passes its check and is
   found bad again, time after time, is a room whose field varies from place
   to place: each such refutation makes it count less
   (:meth:`DefaultFilter._heading_weight`), until the heading is the
