@@ -543,7 +543,7 @@ def test_what_a_field_still_being_checked_settled_after_the_reference_is_given_b
     f, heading, refuted_at, seen = make("default"), np.empty(len(gyr)), None, None
     for i in range(len(gyr)):
         t = i / RATE
-        if referenced and t == 3.0:
+        if referenced and i == int(3.0 * RATE):
             f.reference_taken()
             seen = f.get_state().heading
         north = math.radians(10.0) * min(1.0, max(0.0, (t - 4.0) / 4.0))
