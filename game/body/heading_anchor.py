@@ -77,8 +77,9 @@ class HeadingAnchor:
         self.taken_back = taken_back
         drift = GYRO_HEADING_SD * (t - self.t0)
         if self.p0 > 0.0:
-            self.offset += turn * self.p0 / (self.p0 + drift * drift)
-            self.held += (provisional - self.provisional) * self.p0 / (self.p0 + drift * drift)
+            spread = self.p0 + drift * drift  # the smoother's share of a turn is p0 / spread
+            self.offset += turn * self.p0 / spread
+            self.held += (provisional - self.provisional) * self.p0 / spread
         if not provisional:
             self.held = 0.0  # trusted: nothing is left to give back
         self.provisional = provisional
