@@ -27,7 +27,7 @@ from ..unavailable import unavailable
 DATA = REAL_ARM
 ARMS = ("upper_arm_right", "upper_arm_left")
 HOLD_S = 2.0
-LONGER_S = C.LONGER_HOLD.duration
+LONGER_S = C.LONGER_HOLD.duration + C.HOLD_SLACK_S  # the whole longer hold the game judges
 STEP_S = 0.1
 CLASSES = {"still": ((0.0, 2.5), (17.5, 37.5)), "moving": ((4.5, 17.0),), "onset": ((2.5, 4.5),)}
 

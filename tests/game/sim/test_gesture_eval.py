@@ -17,7 +17,7 @@ from game.body.tracking import Tracking
 from game.sim.gesture_eval import (TrialResult, aim_split_deg, board_stream, maker_calibration, run_trial,
                                      score_launches, summarise)
 from game.sim.motion_model import PlayerProfile, Segment, Session, TrueLaunch, catalogue, session
-from tracker.calibration import LONGER_HOLD
+from game.body.wearing import LONGER_S
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -177,7 +177,22 @@ def test_a_slow_tremor_is_held_longer_and_every_session_calibrates_at_the_first_
     profile = replace(catalogue()["worst_plausible"], tremor_hz=3.0)
     results = [run_trial(profile, seed, gestures=1) for seed in range(20)]
     assert not [(seed, r.calibration) for seed, r in enumerate(results) if not r.calibration_ok]
-    assert any(f"from {LONGER_HOLD.duration:.1f} s still" in r.calibration for r in results)
+    assert any(f"from {LONGER_S:.1f} s still" in r.calibration for r in results)
+
+
+def test_a_player_who_lets_go_of_the_longer_hold_a_moment_early_calibrates():
+    """A corner of issue 12's ranges (every key at its harshest, a 2 deg tremor at 12 Hz, the strap
+    rocking at 5 Hz; speed and noise the typical player's), session 11: its first hold asks for the
+    longer one, and the player, who let go of the first 2.5 s after 2.45 s, holds the 5 s hold for
+    4.96 s (motion_model: the first hold lasts 2.4-2.7 s). Judged on needing all 5 s, the hold was
+    refused ("only 4.96 s of samples"); the longer hold needs 4.5 s (tracker.calibration.HOLD_SLACK_S)."""
+    profile = PlayerProfile(tremor_deg=2.0, tremor_hz=12.0, sway_deg=4.0, wobble_deg=6.0, wobble_hz=5.0,
+                            twist_follow=0.4, slip_deg_per_min=4.0, flex_hysteresis_pct=12.0, flex_creep_pct=12.0,
+                            gyro_warmup_dps=4.0, mag_hard_iron_ut=200.0, mag_soft_iron_pct=20.0,
+                            mag_disturbance_ut=40.0)
+    result = run_trial(profile, 11, gestures=1)
+    assert result.calibration_ok, result.calibration
+    assert f"from {LONGER_S:.1f} s still" in result.calibration  # judged on the longer hold (4.96 s: "5.0")
 
 
 def energyball(*args):
