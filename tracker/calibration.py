@@ -283,6 +283,9 @@ such 5 s holds) but lets more of a slow real move through, so its bound is lower
 real arm recording like ``max_rate`` (``tests/tracker/test_stillness_real.py``, every 5 s window),
 still windows leave at most 0.64 deg/s and the movements at least 0.88; 0.75 lies between."""
 
+LONGER_HOLD_S = LONGER_HOLD.duration + HOLD_SLACK_S
+"""The whole longer hold the game asks for and judges, its first part included: 5 s."""
+
 
 @dataclass(frozen=True, eq=False)
 class BiasResult:

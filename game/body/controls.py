@@ -30,7 +30,7 @@ from .tracking import Tracking
 
 PLOT_SECONDS = 4.0
 PLOT_RATE = 200
-RECENT_SECONDS = 6.0  # "hold still" judges up to 5 s (game.body.wearing.LONGER_S)
+RECENT_SECONDS = 6.0  # "hold still" judges up to 5 s (tracker.calibration.LONGER_HOLD_S)
 
 
 @dataclass

@@ -24,7 +24,7 @@ from typing import Sequence
 import numpy as np
 
 from tracker import quat as Q
-from tracker.calibration import HOLD_SLACK_S, LONGER_HOLD, TREMOR_MIN_HZ, StartupParams
+from tracker.calibration import HOLD_SLACK_S, LONGER_HOLD_S, TREMOR_MIN_HZ, StartupParams
 
 from .avatar import Avatar, Wearing
 from .pose import ArmPose, Quat
@@ -33,8 +33,7 @@ MOVE_DEG = math.degrees(StartupParams().max_tilt)  # a pose's smoothed orientati
 # apart (deg): a postural sway of up to 4 deg peak swings the arm up to 8 deg (the start-up hold's bound)
 FORWARD_RANGE_DEG = (60.0, 120.0)  # how far "arm straight forward" may be from "arm down"
 DOWN_S = StartupParams().duration + HOLD_SLACK_S  # the arm-down hold (s): 2.5
-LONGER_S = LONGER_HOLD.duration + HOLD_SLACK_S  # the whole longer hold (s), "down" and "longer": 5
-HOLD_S = {"down": DOWN_S, "longer": LONGER_S - DOWN_S, "forward": 2.0}  # each step's hold (s);
+HOLD_S = {"down": DOWN_S, "longer": LONGER_HOLD_S - DOWN_S, "forward": 2.0}  # each step's hold (s);
 # "longer" goes on from "down" when the hold's judgement asks for it (tracker.calibration.LONGER_HOLD)
 POSE_WINDOW_S = 1.0  # a held pose is judged and taken over its hold's last second: the player has
 # settled into it, and so has the filter that "hold still" runs again over the hold from a fresh state

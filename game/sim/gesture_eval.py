@@ -33,7 +33,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from tracker import protocol as P
-from tracker.calibration import LONGER_HOLD, BoardCalibration, StartupParams
+from tracker.calibration import LONGER_HOLD, LONGER_HOLD_S, BoardCalibration, StartupParams
 from tracker.maker_sim import SimulatedMaker, calibrate
 from tracker.sim_board import RATE_HZ, SimBoard
 
@@ -41,7 +41,7 @@ from ..body.avatar import Avatar, BodySettings
 from ..body.gestures import GestureEvent, GestureMachine
 from ..body.pose import ArmPose
 from ..body.tracking import Tracking
-from ..body.wearing import HOLD_S, LONGER_S, POSE_WINDOW_S, arm_down_then_forward
+from ..body.wearing import HOLD_S, POSE_WINDOW_S, arm_down_then_forward
 from .motion_model import Interval, PlayerProfile, Session, TrueLaunch, session
 from .session_bootstrap import percentile_interval
 
@@ -159,7 +159,7 @@ def run_trial(profile: PlayerProfile, seed: int, gestures: int = 10, magnetomete
     board, maker_problem = maker_calibration(profile, seed)
     script, samples, hold_params = _played(profile, seed, gestures, board)
     down, forward = _calibration(script)
-    still = _held(samples, down, LONGER_S if hold_params else None)  # the game judges the whole longer hold
+    still = _held(samples, down, LONGER_HOLD_S if hold_params else None)  # the game judges the whole longer hold
     tracking = Tracking(use_magnetometer=magnetometer, board=board)
     avatar = Avatar(BodySettings(upper_arm_m=profile.upper_arm_m, forearm_m=profile.forearm_m))
     machine = GestureMachine()

@@ -24,7 +24,7 @@ import pygame
 from tracker import protocol as P
 from tracker import signals
 from tracker.accel_procedure import FACES, TILTED
-from tracker.calibration import LONGER_HOLD, BoardCalibration, board_id_of, load_for_hello
+from tracker.calibration import LONGER_HOLD, LONGER_HOLD_S, BoardCalibration, board_id_of, load_for_hello
 from tracker.link import LinkSettings, find_boards
 from tracker.maker_sim import SimulatedMaker, cold
 
@@ -32,7 +32,7 @@ from ..body.avatar import Avatar, BodySettings, Wearing
 from ..body.controls import KeyboardMouse, SampleInput, SourceState, TrackerInput
 from ..body.gestures import GestureEvent, GestureMachine, GestureSettings
 from ..body.pose import ArmPose
-from ..body.wearing import HOLD_S, LONGER_S, arm_down, arm_down_then_forward, last_held, recenter
+from ..body.wearing import HOLD_S, arm_down, arm_down_then_forward, last_held, recenter
 from ..world.arena import Arena, ArenaSettings
 from ..world.arena_model import Controls
 from ..replay.log import SessionLog, SessionRecorder
@@ -384,7 +384,7 @@ class Calibration:
             if game.tracker and game.tracker.recent:
                 longer = self.step == "longer"  # judged over the whole hold, with its longer low-pass
                 newest = game.tracker.recent[-1].t
-                span = LONGER_S if longer else HOLD_S["down"]
+                span = LONGER_HOLD_S if longer else HOLD_S["down"]
                 hold = [s for s in game.tracker.recent if s.t >= newest - span]
                 bias, self.poses["down"] = game.tracker.tracking.hold_still(hold, LONGER_HOLD if longer else None)
                 if bias.hold_longer:  # what looked like a turn may be a slow tremor: hold on

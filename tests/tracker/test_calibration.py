@@ -27,7 +27,6 @@ DEG = math.pi / 180
 GYR_SIGMA = 0.01 * DEG * math.sqrt(FS / 2)
 ACC_SIGMA = 300e-6 * P.STANDARD_GRAVITY * math.sqrt(FS / 2)
 UP = np.array([0.0, 0.0, G])
-LONGER_S = C.LONGER_HOLD.duration + C.HOLD_SLACK_S  # the whole longer hold the game asks (game.body.wearing)
 
 
 def still(rng, seconds, bias=(0.0, 0.0, 0.0), up=UP):
@@ -395,12 +394,12 @@ def test_a_slow_rocking_asks_for_the_longer_hold_which_tells_it_from_a_turn():
     t, gyr, acc = arm_hold(rocking, 2.5, seed=12)
     short = C.startup_bias(t, gyr, acc)
     assert not short.ok and "turned about the vertical" in short.message and short.hold_longer
-    t, gyr, acc = arm_hold(rocking, LONGER_S, seed=12)
+    t, gyr, acc = arm_hold(rocking, C.LONGER_HOLD_S, seed=12)
     longer = C.startup_bias(t, gyr, acc, C.LONGER_HOLD)
     assert longer.ok, longer.message
     assert np.all(np.abs(longer.bias - HOLD_BIAS) < 4 * longer.std_error + 0.05 * DEG)
     turned = together(rocking, lambda x: raise_arm(10, 1.5, 2.0)(x)[:, [1, 2, 0]])  # about world z
-    t, gyr, acc = arm_hold(turned, LONGER_S, seed=12)
+    t, gyr, acc = arm_hold(turned, C.LONGER_HOLD_S, seed=12)
     moved = C.startup_bias(t, gyr, acc, C.LONGER_HOLD)
     assert not moved.ok and "turned about the vertical" in moved.message and not moved.hold_longer
 
@@ -410,7 +409,7 @@ def test_the_longer_hold_keeps_the_first_holds_slack():
     all, on at least 4.5 s (HOLD_SLACK_S): a player who lets go of it 40 ms early, or a sample lost
     at its edge, is no reason to refuse it. 993 samples at 200 Hz cover 993 / 200 = 4.965 s: judged.
     Less than 4.5 s is refused, saying how much there was and how long to hold."""
-    assert C.StartupParams().duration + C.HOLD_SLACK_S == 2.5 and LONGER_S == 5.0
+    assert C.StartupParams().duration + C.HOLD_SLACK_S == 2.5 and C.LONGER_HOLD_S == 5.0
     rng = np.random.default_rng(4)
     gyr, acc = still(rng, 993 / FS, BIAS)
     t = np.arange(len(gyr)) / FS

@@ -27,7 +27,6 @@ from ..unavailable import unavailable
 DATA = REAL_ARM
 ARMS = ("upper_arm_right", "upper_arm_left")
 HOLD_S = 2.0
-LONGER_S = C.LONGER_HOLD.duration + C.HOLD_SLACK_S  # the whole longer hold the game judges
 STEP_S = 0.1
 CLASSES = {"still": ((0.0, 2.5), (17.5, 37.5)), "moving": ((4.5, 17.0),), "onset": ((2.5, 4.5),)}
 
@@ -111,7 +110,7 @@ def judged() -> list[Window]:
 @pytest.fixture(scope="module")
 def judged_longer() -> list[Window]:
     _recording()
-    return windows(hold_s=LONGER_S, params=C.LONGER_HOLD)
+    return windows(hold_s=C.LONGER_HOLD_S, params=C.LONGER_HOLD)
 
 
 def test_every_still_window_of_both_arms_passes(judged):
@@ -154,4 +153,4 @@ def test_the_longer_hold_also_passes_every_still_window_and_refuses_every_moving
 if __name__ == "__main__":
     print(table(windows()))
     print()
-    print(table(windows(hold_s=LONGER_S, params=C.LONGER_HOLD)))
+    print(table(windows(hold_s=C.LONGER_HOLD_S, params=C.LONGER_HOLD)))

@@ -339,8 +339,7 @@ class _SlowTremorTracker(_ShakyHoldTracker):
 
 
 def test_a_hold_that_may_be_a_slow_tremor_goes_on_and_the_longer_hold_is_judged(app):
-    from game.body.wearing import LONGER_S
-    from tracker.calibration import LONGER_HOLD
+    from tracker.calibration import LONGER_HOLD, LONGER_HOLD_S
 
     tracker = _SlowTremorTracker()
     app.game.tracker = tracker
@@ -352,7 +351,7 @@ def test_a_hold_that_may_be_a_slow_tremor_goes_on_and_the_longer_hold_is_judged(
     assert screen.step == "forward" and screen.bias_learned
     assert [p for _, p in tracker.holds] == [None, LONGER_HOLD]
     assert tracker.holds[0][0] == pytest.approx(2.5, abs=0.011)
-    assert tracker.holds[1][0] == pytest.approx(LONGER_S, abs=0.011)  # the whole hold, both parts
+    assert tracker.holds[1][0] == pytest.approx(LONGER_HOLD_S, abs=0.011)  # the whole hold, both parts
     tracker.forward = True
     frames(app, 2.0 + 2.1)
     assert screen.step == "done" and "learned as you play" not in screen.message
